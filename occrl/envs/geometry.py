@@ -1,0 +1,123 @@
+"""Planar convex-polygon geometry shared by scene sampling, physics, visibility and rendering.
+
+Polygons are ``(n, 2)`` float arrays of vertices in counter-clockwise order. Poses are
+``(x, y, theta)`` with ``theta`` in radians, counter-clockwise from the shelf x axis.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = [
+    "convex_hull",
+    "polygon_area",
+    "polygon_centroid",
+    "is_convex_ccw",
+    "min_width",
+    "transform_points",
+    "polygons_overlap",
+    "point_in_convex_polygon",
+]
+
+
+def convex_hull(points: np.ndarray) -> np.ndarray:
+    """Counter-clockwise convex hull (Andrew's monotone chain) without collinear points."""
+    pts = sorted(set(map(tuple, np.asarray(points, dtype=float).tolist())))
+    if len(pts) <= 2:
+        return np.asarray(pts, dtype=float).reshape(-1, 2)
+
+    def cross(o, a, b):
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+    lower: list = []
+    for p in pts:
+        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
+            lower.pop()
+        lower.append(p)
+    upper: list = []
+    for p in reversed(pts):
+        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 0:
+            upper.pop()
+        upper.append(p)
+    return np.asarray(lower[:-1] + upper[:-1], dtype=float)
+
+
+def polygon_area(vertices: np.ndarray) -> float:
+    """Signed area (positive for counter-clockwise order)."""
+    x, y = vertices[:, 0], vertices[:, 1]
+    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+
+
+def polygon_centroid(vertices: np.ndarray) -> np.ndarray:
+    """Area centroid of a simple polygon."""
+    x, y = vertices[:, 0], vertices[:, 1]
+    xn, yn = np.roll(x, -1), np.roll(y, -1)
+    c = x * yn - xn * y
+    area = 0.5 * c.sum()
+    return np.array([((x + xn) * c).sum(), ((y + yn) * c).sum()]) / (6.0 * area)
+
+
+def is_convex_ccw(vertices: np.ndarray, tol: float = 1e-12) -> bool:
+    """True when the vertices form a strictly convex polygon in counter-clockwise order."""
+    v = np.asarray(vertices, dtype=float)
+    if v.ndim != 2 or v.shape[1] != 2 or len(v) < 3:
+        return False
+    e = np.roll(v, -1, axis=0) - v
+    en = np.roll(e, -1, axis=0)
+    cross = e[:, 0] * en[:, 1] - e[:, 1] * en[:, 0]
+    return bool(np.all(cross > tol))
+
+
+def min_width(vertices: np.ndarray) -> float:
+    """Smallest distance between two parallel lines enclosing a convex polygon.
+
+    For a convex polygon the minimum is attained with one line through an edge, so it is the
+    smallest over edges of the largest vertex distance to that edge's line. This is the narrowest
+    opening a parallel gripper needs to hold it.
+    """
+    v = np.asarray(vertices, dtype=float)
+    e = np.roll(v, -1, axis=0) - v
+    n = np.stack([-e[:, 1], e[:, 0]], axis=1)
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    proj = v @ n.T  # (verts, edges)
+    return float((proj.max(axis=0) - proj.min(axis=0)).min())
+
+
+def transform_points(points: np.ndarray, pose) -> np.ndarray:
+    """Points from a local frame to the frame in which ``pose`` = (x, y, theta) is given."""
+    x, y, th = float(pose[0]), float(pose[1]), float(pose[2])
+    c, s = math.cos(th), math.sin(th)
+    p = np.asarray(points, dtype=float)
+    out = np.empty_like(p)
+    out[..., 0] = c * p[..., 0] - s * p[..., 1] + x
+    out[..., 1] = s * p[..., 0] + c * p[..., 1] + y
+    return out
+
+
+def _separated_along_edges(a: np.ndarray, b: np.ndarray, gap: float) -> bool:
+    e = np.roll(a, -1, axis=0) - a
+    n = np.stack([e[:, 1], -e[:, 0]], axis=1)  # outward normals of a CCW polygon
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    a_max = np.einsum("ij,ij->i", n, a)  # each edge's own offset is the max of a along its normal
+    b_min = (b @ n.T).min(axis=0)
+    return bool(np.any(b_min - a_max >= gap))
+
+
+def polygons_overlap(a: np.ndarray, b: np.ndarray, clearance: float = 0.0) -> bool:
+    """Separating-axis test for two convex CCW polygons.
+
+    Returns True when the polygons intersect or come closer than ``clearance`` along every
+    edge normal (a conservative clearance test).
+    """
+    return not (_separated_along_edges(a, b, clearance) or _separated_along_edges(b, a, clearance))
+
+
+def point_in_convex_polygon(points: np.ndarray, vertices: np.ndarray) -> np.ndarray:
+    """Boolean mask of which ``points`` (..., 2) lie inside the convex CCW polygon."""
+    v = np.asarray(vertices, dtype=float)
+    e = np.roll(v, -1, axis=0) - v
+    p = np.asarray(points, dtype=float)[..., None, :] - v  # (..., n, 2)
+    cross = e[:, 0] * p[..., 1] - e[:, 1] * p[..., 0]
+    return np.all(cross >= 0.0, axis=-1)

@@ -1,0 +1,149 @@
+"""The abstract observation image (paper Sec. IV-A), rendered from what the robot knows.
+
+The shelf-frame image is a label map: one class per pixel, turned into colours by a palette only
+at the end. Only *detected* objects are drawn and only they cast shadows: this is rendered from
+the state recreated from detections, never from ground truth.
+
+Classes and colours (paper): observable space grey, occluded space white (outside the field of
+view or in the shadow of a detected object or a wall, cast from the camera), walls brown, the
+open front edge black, clutter red, the target green, the gripper blue.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+from PIL import Image, ImageDraw
+
+from occrl.envs import world_constants as C
+from occrl.envs.geometry import transform_points
+from occrl.envs.visibility import _pad, angular_extents
+from occrl.envs.world import gripper_polygons, wall_polygons
+
+__all__ = ["Canvas", "LABELS", "PALETTE", "render_labels", "labels_to_rgb", "DEFAULT_CANVAS"]
+
+LABELS = {"observable": 0, "occluded": 1, "wall": 2, "edge": 3, "clutter": 4, "target": 5, "gripper": 6}
+PALETTE = np.array(
+    [
+        [128, 128, 128],  # observable: grey
+        [255, 255, 255],  # occluded: white
+        [150, 90, 40],  # wall: brown
+        [0, 0, 0],  # front edge: black
+        [220, 30, 30],  # clutter: red
+        [30, 200, 30],  # target: green
+        [40, 80, 230],  # gripper: blue
+    ],
+    dtype=np.uint8,
+)
+_FAR = 10.0  # m, length of shadow and field-of-view rays (well beyond any canvas)
+_WALLS = wall_polygons()
+
+
+@dataclass(frozen=True)
+class Canvas:
+    """A shelf-frame raster: ``resolution`` metres per pixel over ``[x0, x1] x [y0, y1]``.
+    Row 0 is the far side (largest y); columns run along +x."""
+
+    x0: float = -1.1
+    x1: float = 1.1
+    y0: float = -1.0
+    y1: float = 1.05
+    resolution: float = 0.00625
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return (
+            int(math.ceil((self.y1 - self.y0) / self.resolution)),
+            int(math.ceil((self.x1 - self.x0) / self.resolution)),
+        )
+
+    def to_pixels(self, points: np.ndarray) -> np.ndarray:
+        """Continuous (col, row) pixel coordinates; integer values are pixel centres."""
+        p = np.asarray(points, dtype=float)
+        return np.stack([(p[..., 0] - self.x0) / self.resolution - 0.5, (self.y1 - p[..., 1]) / self.resolution - 0.5], -1)
+
+    def lookup(self, labels: np.ndarray, points: np.ndarray, outside: int = LABELS["occluded"]) -> np.ndarray:
+        """Nearest-pixel values of ``labels`` (..., H, W) at shelf-frame ``points`` (..., S, S, 2)."""
+        h, w = labels.shape[-2:]
+        col = np.floor((points[..., 0] - self.x0) / self.resolution).astype(np.int64)
+        row = np.floor((self.y1 - points[..., 1]) / self.resolution).astype(np.int64)
+        valid = (col >= 0) & (col < w) & (row >= 0) & (row < h)
+        flat = labels.reshape(*labels.shape[:-2], h * w)
+        idx = np.where(valid, row * w + col, 0).reshape(*labels.shape[:-2], -1)
+        out = np.take_along_axis(flat, idx, axis=-1).reshape(valid.shape)
+        return np.where(valid, out, outside).astype(labels.dtype)
+
+
+DEFAULT_CANVAS = Canvas()
+
+
+def _poly(draw: ImageDraw.ImageDraw, canvas: Canvas, poly: np.ndarray, label: int) -> None:
+    draw.polygon([tuple(p) for p in canvas.to_pixels(poly).tolist()], fill=label)
+
+
+def render_labels(
+    gripper_pose: np.ndarray,
+    opening: float,
+    object_polygons: Sequence[np.ndarray],
+    is_target: Sequence[bool],
+    canvas: Canvas = DEFAULT_CANVAS,
+    fov: float = C.CAMERA_FOV,
+) -> np.ndarray:
+    """Render the abstract observation as a shelf-frame label map (H, W) uint8.
+
+    Args:
+        gripper_pose: (x, y, theta) of the gripper; the camera is at its origin.
+        opening: finger opening in metres.
+        object_polygons: shelf-frame polygons of the *detected* objects.
+        is_target: which of them is the target.
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.render import render_labels, labels_to_rgb
+        >>> labels = render_labels(np.array([0.0, -0.1, 0.0]), 0.085, [], [])
+        >>> labels_to_rgb(labels).shape[-1]
+        3
+    """
+    cx, cy, th = (float(v) for v in gripper_pose)
+    img = Image.new("L", (canvas.shape[1], canvas.shape[0]), LABELS["observable"])
+    draw = ImageDraw.Draw(img)
+
+    # outside the field of view: the camera, then an arc around the back
+    axis = th + math.pi / 2
+    half = fov / 2
+    arc = np.linspace(axis + half, axis - half + 2 * math.pi, 9)
+    fov_out = np.concatenate([[[cx, cy]], np.stack([cx + _FAR * np.cos(arc), cy + _FAR * np.sin(arc)], 1)])
+    _poly(draw, canvas, fov_out, LABELS["occluded"])
+
+    # shadows of detected objects and walls
+    casters = list(object_polygons) + _WALLS
+    padded = _pad(casters)
+    lo, hi, inside = angular_extents(padded, np.array([cx, cy, th]))
+    for k, poly in enumerate(casters):
+        if inside[k]:
+            continue
+        d = poly - np.array([cx, cy])
+        bearing = np.arctan2(d[:, 1], d[:, 0])
+        rel = np.mod(bearing - bearing[0] + math.pi, 2 * math.pi) - math.pi
+        v_lo, v_hi = poly[rel.argmin()], poly[rel.argmax()]
+        f_lo = v_lo + _FAR * (v_lo - (cx, cy)) / max(np.linalg.norm(v_lo - (cx, cy)), 1e-9)
+        f_hi = v_hi + _FAR * (v_hi - (cx, cy)) / max(np.linalg.norm(v_hi - (cx, cy)), 1e-9)
+        _poly(draw, canvas, np.array([v_lo, v_hi, f_hi, f_lo]), LABELS["occluded"])
+
+    for wall in _WALLS:
+        _poly(draw, canvas, wall, LABELS["wall"])
+    edge = canvas.to_pixels(np.array([[-C.SHELF_HALF_WIDTH, 0.0], [C.SHELF_HALF_WIDTH, 0.0]]))
+    draw.line([tuple(p) for p in edge.tolist()], fill=LABELS["edge"], width=2)
+    for poly, tgt in zip(object_polygons, is_target):
+        _poly(draw, canvas, poly, LABELS["target"] if tgt else LABELS["clutter"])
+    for part in gripper_polygons(opening):
+        _poly(draw, canvas, transform_points(part, (cx, cy, th)), LABELS["gripper"])
+    return np.asarray(img, dtype=np.uint8)
+
+
+def labels_to_rgb(labels: np.ndarray) -> np.ndarray:
+    """(..., H, W) labels -> (..., H, W, 3) uint8 colours."""
+    return PALETTE[labels]

@@ -1,0 +1,54 @@
+"""The robot-centric window: which shelf-frame point each pixel of the network input shows.
+
+The window is a square of ``window`` metres, ``size`` pixels a side, that moves and turns with the
+gripper: the image's up direction is the gripper's approach axis and its centre lies
+``forward_offset`` metres ahead of the gripper, so the camera sits below the image centre and most
+of the window shows what is in front of the gripper.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["robot_centric_points", "DEFAULT_WINDOW", "DEFAULT_SIZE", "DEFAULT_FORWARD_OFFSET"]
+
+DEFAULT_WINDOW = 0.8  # m
+DEFAULT_SIZE = 64  # pixels
+DEFAULT_FORWARD_OFFSET = 0.15  # m: the window spans 0.25 m behind to 0.55 m ahead of the gripper
+
+
+def _local_grid(window: float, size: int, forward_offset: float) -> np.ndarray:
+    pix = window / size
+    k = np.arange(size) + 0.5
+    xl = (k - size / 2) * pix  # columns -> gripper +x (to the right in the image)
+    yl = forward_offset + (size / 2 - k) * pix  # rows -> gripper +y (up in the image)
+    return np.stack(np.broadcast_arrays(xl[None, :], yl[:, None]), -1)  # (size, size, 2)
+
+
+def robot_centric_points(
+    gripper_poses: np.ndarray,
+    window: float = DEFAULT_WINDOW,
+    size: int = DEFAULT_SIZE,
+    forward_offset: float = DEFAULT_FORWARD_OFFSET,
+) -> np.ndarray:
+    """Shelf-frame centres of the window's pixels for each gripper pose.
+
+    Args:
+        gripper_poses: (..., 3) poses (x, y, theta).
+
+    Returns:
+        (..., size, size, 2) points; row 0 is the far edge of the window.
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.robot_frame import robot_centric_points
+        >>> robot_centric_points(np.zeros(3), window=0.8, size=4, forward_offset=0.0)[0, 0].round(2).tolist()
+        [-0.3, 0.3]
+    """
+    poses = np.asarray(gripper_poses, dtype=float)
+    grid = _local_grid(window, size, forward_offset)
+    c, s = np.cos(poses[..., 2]), np.sin(poses[..., 2])
+    c, s = c[..., None, None], s[..., None, None]
+    x = c * grid[..., 0] - s * grid[..., 1] + poses[..., 0, None, None]
+    y = s * grid[..., 0] + c * grid[..., 1] + poses[..., 1, None, None]
+    return np.stack([x, y], -1)

@@ -1,0 +1,309 @@
+"""ShelfEnv: a batch of independent pymunk shelf worlds as one TorchRL environment."""
+
+from __future__ import annotations
+
+import logging
+from typing import Sequence
+
+import numpy as np
+import torch
+from tensordict import TensorDict, TensorDictBase
+from torchrl.data import Bounded, Categorical, Composite, Unbounded
+from torchrl.envs import EnvBase
+
+from occrl.envs import world_constants as C
+from occrl.envs.scene import STAGES, Scene
+from occrl.envs.visibility import detect, visible_fractions
+from occrl.envs.world import ShelfWorld, wall_polygons
+
+__all__ = ["ShelfEnv", "MAX_SLOTS", "MAX_POLY_VERTICES", "pad_polygon"]
+
+logger = logging.getLogger(__name__)
+
+MAX_SLOTS = C.MAX_OBJECTS
+MAX_POLY_VERTICES = C.MAX_VERTICES
+MAX_TYPE_ID = 1_000_000
+_WALLS = wall_polygons()
+
+
+def pad_polygon(vertices: np.ndarray, size: int = MAX_POLY_VERTICES) -> np.ndarray:
+    """Pad a polygon to ``size`` vertices by repeating its first vertex (zero-length edges)."""
+    out = np.empty((size, 2), dtype=np.float32)
+    out[: len(vertices)] = vertices
+    out[len(vertices):] = vertices[0]
+    return out
+
+
+class ShelfEnv(EnvBase):
+    """Retrieve a target object from a cluttered shelf (Bejjani et al.), a batch of pymunk worlds.
+
+    A gripper with a camera starts in front of a shelf holding convex objects, one of which is
+    the target. It must find the target, grasp it and pull it out past the front edge without
+    pushing any other object off the shelf. All worlds of the batch step in one call.
+
+    Action Space:
+        ``Bounded(-1, 1, (4,))``: forward and lateral motion and rotation in the gripper frame,
+        scaled to at most 5 cm, 5 cm and 15 degrees, and the gripper command (> 0 close, <= 0
+        open). Values outside [-1, 1] are clipped; NaN or inf raise ``ValueError`` and leave
+        every world unchanged.
+
+    Observation Space:
+        What a perception system reports, never ground truth:
+        ``"gripper_pose"`` (x, y, theta), ``"gripper_opening"`` (m), ``"target_type"`` and
+        ``"target_vertices"`` (the target's shape, a task prior) and, per object slot,
+        ``("objects", "detected" | "type_id" | "pose" | "vertices" | "num_vertices")``. A slot
+        is filled only while its object is more than 50 % visible from the camera; undetected
+        slots are all zero. ``"success"`` and ``"dropped"`` flag how an episode ended.
+        Ground truth for losses and analysis lives under ``"privileged"``; no policy reads it.
+
+    Rewards:
+        -1 per action; -50 more when an object leaves the shelf.
+
+    Starting State:
+        A scene sampled for the curriculum ``stage`` (1: 1-4 objects, 2: 5-10, 3: 7-10 with the
+        target in the back half) or the next of the given ``scenes``; the gripper starts outside
+        the shelf (y = -0.1 m) facing in.
+
+    Episode Termination:
+        Terminated when the target is held and its centroid is 5 cm past the front edge
+        (``success``) or when any other object leaves the shelf (``dropped``); truncated after
+        ``max_steps`` (50) actions.
+
+    Args:
+        batch_size: number of independent worlds.
+        stage: curriculum stage for sampled scenes.
+        noise: execution noise level on density, friction and shapes (0 to 0.25).
+        seed: seeds scene sampling and noise; world ``i`` uses the ``i``-th spawned stream.
+        scenes: reset to these scenes in turn instead of sampling.
+        num_objects: fixed object count for sampled scenes (overrides the stage's range).
+        max_steps: truncation horizon.
+
+    Examples:
+        >>> from occrl.envs import ShelfEnv
+        >>> env = ShelfEnv(batch_size=2, stage=1, seed=0)
+        >>> td = env.rollout(3)
+        >>> td["next", "reward"].shape
+        torch.Size([2, 3, 1])
+    """
+
+    batch_locked = True
+
+    def __init__(
+        self,
+        batch_size: int | Sequence[int] = 1,
+        stage: int = 1,
+        noise: float = 0.0,
+        seed: int | None = None,
+        scenes: Sequence[Scene] | None = None,
+        num_objects: int | None = None,
+        max_steps: int = C.MAX_EPISODE_STEPS,
+        device: str | torch.device = "cpu",
+    ) -> None:
+        if isinstance(batch_size, int):
+            batch_size = (batch_size,)
+        batch_size = torch.Size(batch_size)
+        if len(batch_size) != 1 or batch_size[0] < 1:
+            raise ValueError(f"batch_size must be a positive int or a 1-element shape, got {tuple(batch_size)}")
+        if stage not in STAGES:
+            raise ValueError(f"stage must be one of {sorted(STAGES)}, got {stage!r}")
+        if not 0.0 <= noise <= 1.0:
+            raise ValueError(f"noise must be in [0, 1] (the paper uses 0 to 0.25), got {noise}")
+        if scenes is not None:
+            scenes = list(scenes)
+            if not scenes or not all(isinstance(s, Scene) for s in scenes):
+                raise ValueError("scenes must be a non-empty sequence of occrl.envs.Scene")
+        super().__init__(device=device, batch_size=batch_size)
+        self.num_worlds = int(batch_size[0])
+        self.stage = stage
+        self.noise = float(noise)
+        self.scenes = scenes
+        self.num_objects = num_objects
+        self.max_steps = int(max_steps)
+        self._scene_cursor = 0
+        self.worlds: list[ShelfWorld | None] = [None] * self.num_worlds
+        self._steps = np.zeros(self.num_worlds, dtype=np.int64)
+        self._make_specs()
+        self._set_seed(seed)
+
+    # ------------------------------------------------------------------ specs
+    def _make_specs(self) -> None:
+        B = self.batch_size
+        N, V = MAX_SLOTS, MAX_POLY_VERTICES
+        f32 = torch.float32
+
+        def flag():
+            return Categorical(2, shape=(*B, 1), dtype=torch.bool)
+
+        objects = Composite(
+            detected=Categorical(2, shape=(*B, N), dtype=torch.bool),
+            type_id=Categorical(MAX_TYPE_ID, shape=(*B, N), dtype=torch.int64),
+            pose=Unbounded(shape=(*B, N, 3), dtype=f32),
+            vertices=Unbounded(shape=(*B, N, V, 2), dtype=f32),
+            num_vertices=Categorical(V + 1, shape=(*B, N), dtype=torch.int64),
+            shape=(*B, N),
+        )
+        privileged = Composite(
+            object_present=Categorical(2, shape=(*B, N), dtype=torch.bool),
+            object_pose=Unbounded(shape=(*B, N, 3), dtype=f32),
+            object_vertices=Unbounded(shape=(*B, N, V, 2), dtype=f32),
+            object_num_vertices=Categorical(V + 1, shape=(*B, N), dtype=torch.int64),
+            visible_fraction=Bounded(0.0, 1.0, shape=(*B, N), dtype=f32),
+            target_slot=Categorical(N, shape=(*B, 1), dtype=torch.int64),
+            target_pose=Unbounded(shape=(*B, 3), dtype=f32),
+            shape=B,
+        )
+        self.observation_spec = Composite(
+            gripper_pose=Unbounded(shape=(*B, 3), dtype=f32),
+            gripper_opening=Bounded(0.0, C.GRIPPER_STROKE, shape=(*B, 1), dtype=f32),
+            target_type=Categorical(MAX_TYPE_ID, shape=(*B, 1), dtype=torch.int64),
+            target_vertices=Unbounded(shape=(*B, V, 2), dtype=f32),
+            target_num_vertices=Categorical(V + 1, shape=(*B, 1), dtype=torch.int64),
+            objects=objects,
+            success=flag(),
+            dropped=flag(),
+            privileged=privileged,
+            shape=B,
+        )
+        self.action_spec = Bounded(-1.0, 1.0, shape=(*B, C.ACTION_DIM), dtype=f32)
+        self.reward_spec = Unbounded(shape=(*B, 1), dtype=f32)
+        self.done_spec = Composite(done=flag(), terminated=flag(), truncated=flag(), shape=B)
+
+    # ------------------------------------------------------------------ seeding
+    def _set_seed(self, seed: int | None) -> None:
+        ss = np.random.SeedSequence(seed)
+        self._rngs = [np.random.default_rng(s) for s in ss.spawn(self.num_worlds)]
+        self._seed = seed
+
+    def _next_scene(self, i: int) -> Scene:
+        if self.scenes is not None:
+            scene = self.scenes[self._scene_cursor % len(self.scenes)]
+            self._scene_cursor += 1
+            return scene
+        return Scene.sample(self.stage, seed=self._rngs[i], num_objects=self.num_objects)
+
+    # ------------------------------------------------------------------ reset / step
+    def _reset(self, tensordict: TensorDictBase | None = None, **kwargs) -> TensorDictBase:
+        if tensordict is not None and "_reset" in tensordict.keys():
+            mask = tensordict.get("_reset").reshape(self.num_worlds).cpu().numpy()
+        else:
+            mask = np.ones(self.num_worlds, dtype=bool)
+        for i in np.flatnonzero(mask):
+            self.worlds[i] = ShelfWorld(self._next_scene(i), noise=self.noise, rng=self._rngs[i])
+            self._steps[i] = 0
+        zeros = np.zeros(self.num_worlds, dtype=bool)
+        out = self._observe(success=zeros, dropped=zeros)
+        flags = torch.zeros((self.num_worlds, 1), dtype=torch.bool)
+        out.update({"done": flags, "terminated": flags.clone(), "truncated": flags.clone()})
+        return out
+
+    def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
+        actions = tensordict.get("action").detach().cpu().numpy().astype(np.float64).reshape(self.num_worlds, -1)
+        if actions.shape[1] != C.ACTION_DIM:
+            raise ValueError(f"actions must have {C.ACTION_DIM} entries, got shape {tuple(actions.shape)}")
+        bad = ~np.isfinite(actions).all(axis=1)
+        if bad.any():
+            raise ValueError(
+                f"action of world(s) {np.flatnonzero(bad).tolist()} contains NaN or inf: "
+                f"{actions[bad].tolist()}; allowed: finite numbers, clipped to [-1, 1]. No world was stepped."
+            )
+        B = self.num_worlds
+        reward = np.empty(B, dtype=np.float32)
+        success = np.zeros(B, dtype=bool)
+        dropped = np.zeros(B, dtype=bool)
+        for i, world in enumerate(self.worlds):
+            outcome = world.step(actions[i])
+            reward[i] = outcome.reward
+            success[i] = outcome.retrieved
+            dropped[i] = bool(outcome.dropped)
+        self._steps += 1
+        terminated = success | dropped
+        truncated = (self._steps >= self.max_steps) & ~terminated
+        out = self._observe(success=success, dropped=dropped)
+        out.update(
+            {
+                "reward": torch.from_numpy(reward).unsqueeze(-1),
+                "terminated": torch.from_numpy(terminated).unsqueeze(-1),
+                "truncated": torch.from_numpy(truncated).unsqueeze(-1),
+                "done": torch.from_numpy(terminated | truncated).unsqueeze(-1),
+            }
+        )
+        return out
+
+    # ------------------------------------------------------------------ perception
+    def _observe(self, success: np.ndarray, dropped: np.ndarray) -> TensorDictBase:
+        B, N, V = self.num_worlds, MAX_SLOTS, MAX_POLY_VERTICES
+        gripper_pose = np.zeros((B, 3), np.float32)
+        opening = np.zeros((B, 1), np.float32)
+        target_type = np.zeros((B, 1), np.int64)
+        target_vertices = np.zeros((B, V, 2), np.float32)
+        target_nv = np.zeros((B, 1), np.int64)
+        det = np.zeros((B, N), bool)
+        type_id = np.zeros((B, N), np.int64)
+        pose = np.zeros((B, N, 3), np.float32)
+        verts = np.zeros((B, N, V, 2), np.float32)
+        nverts = np.zeros((B, N), np.int64)
+        present = np.zeros((B, N), bool)
+        true_pose = np.zeros((B, N, 3), np.float32)
+        true_verts = np.zeros((B, N, V, 2), np.float32)
+        true_nv = np.zeros((B, N), np.int64)
+        frac = np.zeros((B, N), np.float32)
+        target_slot = np.zeros((B, 1), np.int64)
+        target_pose = np.zeros((B, 3), np.float32)
+        for i, w in enumerate(self.worlds):
+            n = w.num_objects
+            gp = w.gripper_pose()
+            poses = w.object_poses()
+            polys = w.object_world_polygons()
+            f = visible_fractions(polys, gp, _WALLS)
+            d = detect(f)
+            gripper_pose[i] = gp
+            opening[i, 0] = w.opening
+            t = w.target_index
+            target_type[i, 0] = w.type_ids[t]
+            target_vertices[i] = pad_polygon(w.nominal_vertices[t])
+            target_nv[i, 0] = len(w.nominal_vertices[t])
+            present[i, :n] = True
+            true_pose[i, :n] = poses
+            frac[i, :n] = f
+            for k in range(n):
+                pv = pad_polygon(w.nominal_vertices[k])
+                true_verts[i, k] = pv
+                true_nv[i, k] = len(w.nominal_vertices[k])
+                if d[k]:
+                    verts[i, k] = pv
+                    nverts[i, k] = true_nv[i, k]
+            det[i, :n] = d
+            type_id[i, :n] = np.where(d, w.type_ids, 0)
+            pose[i, :n] = np.where(d[:, None], poses, 0.0)
+            target_slot[i, 0] = t
+            target_pose[i] = poses[t]
+        t = torch.from_numpy
+        batch = self.batch_size
+        return TensorDict(
+            {
+                "gripper_pose": t(gripper_pose),
+                "gripper_opening": t(opening),
+                "target_type": t(target_type),
+                "target_vertices": t(target_vertices),
+                "target_num_vertices": t(target_nv),
+                "objects": TensorDict(
+                    {"detected": t(det), "type_id": t(type_id), "pose": t(pose), "vertices": t(verts), "num_vertices": t(nverts)},
+                    batch_size=(*batch, N),
+                ),
+                "success": t(success.copy()).unsqueeze(-1),
+                "dropped": t(dropped.copy()).unsqueeze(-1),
+                "privileged": TensorDict(
+                    {
+                        "object_present": t(present),
+                        "object_pose": t(true_pose),
+                        "object_vertices": t(true_verts),
+                        "object_num_vertices": t(true_nv),
+                        "visible_fraction": t(frac),
+                        "target_slot": t(target_slot),
+                        "target_pose": t(target_pose),
+                    },
+                    batch_size=batch,
+                ),
+            },
+            batch_size=batch,
+        )

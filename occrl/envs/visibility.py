@@ -1,0 +1,132 @@
+"""Visibility from the gripper camera in 2D and the > 50 % detection rule (DESIGN section 4).
+
+Seen from the camera, each convex object covers an interval of bearings (its angular extent).
+An object's visible fraction is the share of that extent that lies inside the field of view and
+where the object is the first thing a ray from the camera hits. Objects (and the shelf walls) are
+taller than the camera's line of sight, so anything nearer hides what is behind it.
+
+The computation is exact up to floating point: the in-view bearing range is cut at every object's
+silhouette edges into elementary intervals; within one interval the set of objects covering it
+does not change and, because disjoint convex sets cannot swap depth order, neither does the
+nearest one. One ray per interval (Cyrus-Beck clipping against every polygon) decides its owner.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+import numpy as np
+
+from occrl.envs import world_constants as C
+
+__all__ = ["visible_fractions", "detect", "camera_pose", "angular_extents"]
+
+
+def camera_pose(gripper_pose: np.ndarray) -> np.ndarray:
+    """The camera sits at the gripper frame's origin looking along its +y axis."""
+    return np.asarray(gripper_pose, dtype=float)
+
+
+def _pad(polygons: Sequence[np.ndarray]) -> np.ndarray:
+    """(P, V, 2) with each polygon padded by repeating its first vertex (zero-length edges)."""
+    vmax = max(len(p) for p in polygons)
+    out = np.empty((len(polygons), vmax, 2))
+    for k, p in enumerate(polygons):
+        out[k, : len(p)] = p
+        out[k, len(p):] = p[0]
+    return out
+
+
+def angular_extents(polys: np.ndarray, cam: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Bearing interval ``[lo, hi]`` of each padded polygon seen from ``cam`` = (x, y, heading),
+    in radians relative to the camera axis, and whether the camera is inside the polygon."""
+    cx, cy, th = cam
+    d = polys - np.array([cx, cy])
+    # bearings relative to the camera axis (+y of the gripper frame is heading th + pi/2)
+    ang = np.arctan2(d[..., 1], d[..., 0]) - (th + math.pi / 2)
+    centre = np.arctan2(d[..., 1].mean(-1), d[..., 0].mean(-1)) - (th + math.pi / 2)
+    rel = np.mod(ang - centre[:, None] + math.pi, 2 * math.pi) - math.pi
+    centre = np.mod(centre + math.pi, 2 * math.pi) - math.pi
+    lo = centre + rel.min(-1)
+    hi = centre + rel.max(-1)
+    # camera inside a convex polygon <=> the camera is on the inner side of every edge
+    e = np.roll(polys, -1, axis=1) - polys
+    cross = e[..., 0] * (cy - polys[..., 1]) - e[..., 1] * (cx - polys[..., 0])
+    inside = np.all(cross >= 0, axis=-1)
+    return lo, hi, inside
+
+
+def _ray_entry(polys: np.ndarray, cam: np.ndarray, bearings: np.ndarray) -> np.ndarray:
+    """Distance along each ray (camera-relative bearing) to each polygon; inf where missed.
+    Returns (rays, polygons)."""
+    cx, cy, th = cam
+    phi = bearings + th + math.pi / 2
+    dx, dy = np.cos(phi), np.sin(phi)  # (R,)
+    a = polys
+    b = np.roll(polys, -1, axis=1)
+    e = b - a
+    nx, ny = e[..., 1], -e[..., 0]  # outward normals (CCW), zero for padded edges: (P, V)
+    h = nx * a[..., 0] + ny * a[..., 1]  # n . p <= h inside
+    nc = nx * cx + ny * cy  # (P, V)
+    nd = nx[None] * dx[:, None, None] + ny[None] * dy[:, None, None]  # (R, P, V)
+    num = h[None] - nc[None]  # need t * nd <= num
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = num / nd
+    lower = np.where(nd < 0, t, -np.inf).max(-1)
+    upper = np.where(nd > 0, t, np.inf).min(-1)
+    parallel_out = np.any((nd == 0) & (num < 0), axis=-1)
+    hit = (lower <= upper) & (upper > 0) & ~parallel_out
+    return np.where(hit, np.maximum(lower, 0.0), np.inf)
+
+
+def visible_fractions(
+    object_polygons: Sequence[np.ndarray],
+    gripper_pose: np.ndarray,
+    occluder_polygons: Sequence[np.ndarray] = (),
+    fov: float = C.CAMERA_FOV,
+) -> np.ndarray:
+    """Fraction of each object's angular extent that the camera sees (0 to 1).
+
+    Args:
+        object_polygons: shelf-frame CCW polygons of the objects.
+        gripper_pose: (x, y, theta); the camera is at its origin looking along its +y axis.
+        occluder_polygons: extra polygons that hide but are not reported (shelf walls).
+        fov: horizontal field of view in radians.
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.visibility import visible_fractions
+        >>> sq = lambda x, y, r: np.array([[x-r, y-r], [x+r, y-r], [x+r, y+r], [x-r, y+r]])
+        >>> front, back = sq(0, 0.1, 0.03), sq(0, 0.3, 0.02)  # back is wholly behind front
+        >>> visible_fractions([front, back], np.array([0.0, -0.1, 0.0])).round(3).tolist()
+        [1.0, 0.0]
+    """
+    n = len(object_polygons)
+    if n == 0:
+        return np.zeros(0)
+    polys = _pad(list(object_polygons) + list(occluder_polygons))
+    cam = camera_pose(gripper_pose)
+    lo, hi, inside = angular_extents(polys, cam)
+    half = fov / 2
+    clo, chi = np.maximum(lo, -half), np.minimum(hi, half)
+    in_view = (chi > clo) & ~inside
+    if not in_view[:n].any():
+        return np.zeros(n)
+    cuts = np.unique(np.concatenate([[-half, half], clo[in_view], chi[in_view]]))
+    cuts = cuts[(cuts >= -half) & (cuts <= half)]
+    mids = 0.5 * (cuts[:-1] + cuts[1:])
+    widths = np.diff(cuts)
+    dist = _ray_entry(polys, cam, mids)  # (intervals, polygons)
+    dist[:, inside] = np.inf
+    owner = dist.argmin(-1)
+    owned = np.isfinite(dist.min(-1))
+    visible = np.bincount(owner[owned], weights=widths[owned], minlength=len(polys))[:n]
+    extent = (hi - lo)[:n]
+    frac = np.where(extent > 0, visible / np.maximum(extent, 1e-12), 0.0)
+    return np.clip(frac, 0.0, 1.0)
+
+
+def detect(fractions: np.ndarray, threshold: float = C.DETECTION_THRESHOLD) -> np.ndarray:
+    """Detected means strictly more than ``threshold`` of the object is visible."""
+    return fractions > threshold

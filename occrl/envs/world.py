@@ -1,0 +1,352 @@
+"""The shelf world: pymunk physics of a top-down gripper pushing and grasping convex objects.
+
+Physics queries live here, apart from task logic (:class:`~occrl.envs.ShelfEnv`) and perception
+(:mod:`occrl.envs.visibility`, :mod:`occrl.envs.render`).
+
+Model (DESIGN section 3):
+
+* Objects are dynamic pymunk polygons. Friction against the shelf floor is a pivot joint and a
+  gear joint to a static body whose forces are limited to mu * m * g (and the matching torque).
+* The gripper is one dynamic body (palm, two fingers, forearm) driven towards a kinematic control
+  body by force-limited joints, so walls stop it and it pushes objects with bounded force.
+* An action is a pose increment in the gripper frame executed at constant velocity over
+  ``ACTION_DURATION`` seconds of simulated time, then everything is brought to rest (quasi-static
+  execution: the real robot pauses to perceive between actions).
+* Grasping: closing the fingers on an object that straddles the gripper axis between the fingers
+  centres it and holds it rigidly (a weld); other objects stop the fingers at contact. Opening
+  releases. This replaces finger friction, which a 2D engine models poorly.
+* Noise: before each action the density, friction and vertices of every object are perturbed
+  about their nominal values (``noise`` level, DESIGN section 3).
+
+Determinism: every action starts from a *cold* solver. Chipmunk keeps hidden state between steps
+(cached contact impulses, joint impulses, shape hash ids), so resetting poses alone drifts. Before
+each action the world removes its dynamic shapes and joints, resets the shape id counter and the
+previous time step, and adds fresh ones in a fixed order. The state is therefore exactly the small
+:meth:`ShelfWorld.snapshot`: poses, gripper opening, grasp and the noise generator.
+"""
+
+from __future__ import annotations
+
+import copy
+import logging
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pymunk
+from pymunk._chipmunk_cffi import lib as _cp
+
+from occrl.envs import world_constants as C
+from occrl.envs.geometry import convex_hull, polygon_area, polygons_overlap, transform_points
+from occrl.envs.scene import Scene
+
+__all__ = ["ShelfWorld", "StepOutcome", "gripper_polygons", "wall_polygons", "inverse_pose"]
+
+logger = logging.getLogger(__name__)
+
+_GRIPPER_GROUP = 1  # shapes in this group never collide with each other (gripper + held object)
+
+
+def gripper_polygons(opening: float) -> list[np.ndarray]:
+    """Gripper outline in its own frame: palm, left finger, right finger, forearm (CCW boxes)."""
+    h = opening / 2.0
+    return [
+        _box(-C.PALM_WIDTH / 2, -C.PALM_DEPTH, C.PALM_WIDTH / 2, 0.0),
+        _box(-h - C.FINGER_WIDTH, 0.0, -h, C.FINGER_LENGTH),
+        _box(h, 0.0, h + C.FINGER_WIDTH, C.FINGER_LENGTH),
+        _box(-C.FOREARM_WIDTH / 2, -C.PALM_DEPTH - C.FOREARM_LENGTH, C.FOREARM_WIDTH / 2, -C.PALM_DEPTH),
+    ]
+
+
+def wall_polygons() -> list[np.ndarray]:
+    """Left, right and back wall of the shelf in the shelf frame."""
+    w, d, t = C.SHELF_HALF_WIDTH, C.SHELF_DEPTH, C.WALL_THICKNESS
+    return [
+        _box(-w - t, 0.0, -w, d + t),
+        _box(w, 0.0, w + t, d + t),
+        _box(-w - t, d, w + t, d + t),
+    ]
+
+
+def _box(x0: float, y0: float, x1: float, y1: float) -> np.ndarray:
+    return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], dtype=float)
+
+
+def inverse_pose(pose) -> tuple[float, float, float]:
+    """The pose that maps shelf-frame points into the frame of ``pose``."""
+    x, y, th = (float(v) for v in pose)
+    c, s = math.cos(th), math.sin(th)
+    return (-(c * x + s * y), -(-s * x + c * y), -th)
+
+
+@dataclass(frozen=True)
+class StepOutcome:
+    """What one action did. ``dropped`` lists object indices that left the shelf."""
+
+    reward: float
+    retrieved: bool
+    dropped: tuple[int, ...]
+
+    @property
+    def terminal(self) -> bool:
+        return self.retrieved or bool(self.dropped)
+
+
+class ShelfWorld:
+    """A pymunk shelf world built from a :class:`~occrl.envs.Scene`.
+
+    Args:
+        scene: the objects and the gripper's start pose.
+        noise: physics/shape noise level (DESIGN: 0 to 0.25) applied before each action.
+        rng: generator for the noise, the only randomness in the world.
+
+    Examples:
+        >>> from occrl.envs import Scene, ShelfWorld
+        >>> world = ShelfWorld(Scene.sample(stage=1, seed=0))
+        >>> snap = world.snapshot()
+        >>> out = world.step([1.0, 0.0, 0.0, -1.0])
+        >>> pose_after = world.gripper_pose()
+        >>> world.restore(snap); _ = world.step([1.0, 0.0, 0.0, -1.0])
+        >>> bool((world.gripper_pose() == pose_after).all())
+        True
+    """
+
+    def __init__(self, scene: Scene, noise: float = 0.0, rng: np.random.Generator | None = None) -> None:
+        if not 0.0 <= noise <= 1.0:
+            raise ValueError(f"noise level must be in [0, 1], got {noise}")
+        self.scene = scene
+        self.noise = float(noise)
+        self.rng = rng if rng is not None else np.random.default_rng(0)
+        self.num_objects = len(scene.objects)
+        self.target_index = scene.target_index
+        self.type_ids = np.array([o.type_id for o in scene.objects], dtype=np.int64)
+        self.nominal_vertices = [np.asarray(o.vertices, dtype=float) for o in scene.objects]
+        self.object_radius = np.array([np.linalg.norm(v, axis=1).max() for v in self.nominal_vertices])
+        self.opening = C.GRIPPER_STROKE
+        self.closed = False
+        self.held: int | None = None
+        self._build(scene)
+
+    # ------------------------------------------------------------------ construction
+    def _build(self, scene: Scene) -> None:
+        space = self.space = pymunk.Space()
+        space.gravity = (0.0, 0.0)
+        space.iterations = 20
+        for poly in wall_polygons():
+            s = pymunk.Poly(space.static_body, poly.tolist())
+            s.friction = C.NOMINAL_FRICTION
+            space.add(s)
+        self._shape_id_base = _cp.cpSpaceGetShapeIDCounter(space._space)
+
+        self.control = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+        self.gripper = pymunk.Body(mass=C.GRIPPER_MASS, moment=1.0)
+        polys = gripper_polygons(C.GRIPPER_STROKE)
+        total_area = sum(polygon_area(p) for p in polys)
+        self.gripper.moment = sum(pymunk.moment_for_poly(C.GRIPPER_MASS * polygon_area(p) / total_area, p.tolist()) for p in polys)
+        self.gripper_shapes = []
+        for poly in polys:
+            s = pymunk.Poly(self.gripper, poly.tolist())
+            s.friction = C.NOMINAL_FRICTION
+            s.filter = pymunk.ShapeFilter(group=_GRIPPER_GROUP)
+            self.gripper_shapes.append(s)
+        self.bodies = []
+        self.shapes = []
+        self.floor_force = np.zeros(self.num_objects)  # mu * m * g of each object, this action
+        self.floor_arm = np.zeros(self.num_objects)  # radius of gyration: torque = force * arm
+        for o in scene.objects:
+            body = pymunk.Body(mass=1.0, moment=1.0)
+            self.bodies.append(body)
+            self.shapes.append(pymunk.Poly(body, o.vertices.tolist()))
+        space.add(self.control, self.gripper, *self.bodies)
+        self._constraints: list[pymunk.Constraint] = []
+        self._shapes_in_space = False
+        for i in range(self.num_objects):
+            self._set_physics(i, self.nominal_vertices[i], C.NOMINAL_DENSITY, C.NOMINAL_FRICTION)
+        self._set_poses(np.asarray(scene.gripper_pose, float), np.array([o.pose for o in scene.objects], float))
+
+    def _set_physics(self, i: int, vertices: np.ndarray, density: float, friction: float) -> None:
+        body, shape = self.bodies[i], self.shapes[i]
+        mass = density * polygon_area(vertices)
+        moment = pymunk.moment_for_poly(mass, vertices.tolist())
+        body.mass, body.moment = mass, moment
+        shape.friction = friction
+        self.floor_force[i] = friction * mass * C.GRAVITY
+        self.floor_arm[i] = math.sqrt(moment / mass)
+
+    def _set_poses(self, gripper_pose: np.ndarray, object_poses: np.ndarray) -> None:
+        for body, pose in ((self.control, gripper_pose), (self.gripper, gripper_pose)):
+            body.position = (float(pose[0]), float(pose[1]))
+            body.angle = float(pose[2])
+        for body, pose in zip(self.bodies, object_poses):
+            body.position = (float(pose[0]), float(pose[1]))
+            body.angle = float(pose[2])
+        for body in (self.control, self.gripper, *self.bodies):
+            body.velocity = (0.0, 0.0)
+            body.angular_velocity = 0.0
+
+    def _cold_start(self) -> None:
+        """Put the solver in a canonical state: no cached contacts or joint impulses, fixed shape
+        hash ids and insertion order. Makes an action a function of the snapshot alone."""
+        space = self.space
+        if self._shapes_in_space:
+            space.remove(*self.gripper_shapes, *self.shapes, *self._constraints)
+        _cp.cpSpaceSetShapeIDCounter(space._space, self._shape_id_base)
+        static = space.static_body
+        drive = pymunk.PivotJoint(self.control, self.gripper, (0, 0), (0, 0))
+        drive.max_bias, drive.max_force = C.GRIPPER_MAX_SPEED, C.GRIPPER_MAX_FORCE
+        turn = pymunk.GearJoint(self.control, self.gripper, 0.0, 1.0)
+        turn.max_bias, turn.max_force = 10 * C.GRIPPER_MAX_SPEED, C.GRIPPER_MAX_TORQUE
+        cons = [drive, turn]
+        for i, body in enumerate(self.bodies):
+            fp = pymunk.PivotJoint(static, body, (0, 0), (0, 0))
+            fp.max_bias, fp.max_force = 0.0, self.floor_force[i]
+            fg = pymunk.GearJoint(static, body, 0.0, 1.0)
+            fg.max_bias, fg.max_force = 0.0, self.floor_force[i] * self.floor_arm[i]
+            cons += [fp, fg]
+        if self.held is not None:
+            body = self.bodies[self.held]
+            weld = pymunk.PivotJoint(self.gripper, body, self.gripper.world_to_local(body.position), (0, 0))
+            lock = pymunk.GearJoint(self.gripper, body, body.angle - self.gripper.angle, 1.0)
+            cons += [weld, lock]
+        for i, shape in enumerate(self.shapes):
+            shape.filter = pymunk.ShapeFilter(group=_GRIPPER_GROUP if i == self.held else 0)
+        space.add(*self.gripper_shapes, *self.shapes, *cons)
+        self._constraints = cons
+        self._shapes_in_space = True
+        _cp.cpSpaceSetCurrentTimeStep(space._space, 0.0)
+        _cp.cpSpaceSetTimestamp(space._space, 0)
+
+    # ------------------------------------------------------------------ state
+    def gripper_pose(self) -> np.ndarray:
+        g = self.gripper
+        return np.array([g.position.x, g.position.y, g.angle])
+
+    def object_poses(self) -> np.ndarray:
+        """(n, 3) centroid poses of all objects."""
+        return np.array([[b.position.x, b.position.y, b.angle] for b in self.bodies]).reshape(-1, 3)
+
+    def object_world_polygons(self) -> list[np.ndarray]:
+        """Each object's nominal polygon (its type's shape) at its current pose."""
+        return [transform_points(v, p) for v, p in zip(self.nominal_vertices, self.object_poses())]
+
+    def snapshot(self) -> dict:
+        """The complete state: poses, gripper opening and grasp, noise generator."""
+        return {
+            "gripper_pose": self.gripper_pose(),
+            "object_poses": self.object_poses(),
+            "opening": self.opening,
+            "closed": self.closed,
+            "held": self.held,
+            "rng": copy.deepcopy(self.rng.bit_generator.state),
+        }
+
+    def restore(self, snap: dict) -> None:
+        """Return to a :meth:`snapshot`; the next action then gives bit-identical results."""
+        self._set_poses(snap["gripper_pose"], snap["object_poses"])
+        self.closed = snap["closed"]
+        self.held = snap["held"]
+        self._set_opening(snap["opening"])
+        self.rng.bit_generator.state = copy.deepcopy(snap["rng"])
+
+    # ------------------------------------------------------------------ dynamics
+    def step(self, action) -> StepOutcome:
+        """Apply one action ``[forward, lateral, rotation, gripper]``; entries are clipped to [-1, 1].
+
+        Raises:
+            ValueError: if the action is not 4 finite numbers; the world is left unchanged.
+        """
+        a = np.asarray(action, dtype=float).reshape(-1)
+        if a.shape != (C.ACTION_DIM,):
+            raise ValueError(f"action must have {C.ACTION_DIM} entries (forward, lateral, rotation, gripper), got shape {a.shape}")
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"action contains NaN or inf: {a.tolist()}; allowed: finite numbers (clipped to [-1, 1])")
+        a = np.clip(a, -1.0, 1.0)
+        if self.noise > 0.0:
+            self._perturb()
+        self._actuate_fingers(close=bool(a[3] > 0.0))
+        self._cold_start()
+
+        # Target pose of the control body (workspace-limited), reached at constant velocity.
+        x, y, th = self.gripper_pose()
+        fwd, lat, rot = a[0] * C.MAX_FORWARD, a[1] * C.MAX_LATERAL, a[2] * C.MAX_ROTATION
+        c, s = math.cos(th), math.sin(th)
+        tx = min(max(x + c * lat - s * fwd, C.GRIPPER_X_LIMITS[0]), C.GRIPPER_X_LIMITS[1])
+        ty = min(max(y + s * lat + c * fwd, C.GRIPPER_Y_LIMITS[0]), C.GRIPPER_Y_LIMITS[1])
+        tth = min(max(th + rot, C.GRIPPER_THETA_LIMITS[0]), C.GRIPPER_THETA_LIMITS[1])
+        self.control.position = (x, y)
+        self.control.angle = th
+        self.control.velocity = ((tx - x) / C.ACTION_DURATION, (ty - y) / C.ACTION_DURATION)
+        self.control.angular_velocity = (tth - th) / C.ACTION_DURATION
+        dt = C.ACTION_DURATION / C.PHYSICS_SUBSTEPS
+        for _ in range(C.PHYSICS_SUBSTEPS):
+            self.space.step(dt)
+        # Quasi-static: everything comes to rest between actions.
+        self._set_poses(self.gripper_pose(), self.object_poses())
+        return self._outcome()
+
+    def _outcome(self) -> StepOutcome:
+        poses = self.object_poses()
+        retrieved = self.held == self.target_index and poses[self.target_index, 1] < C.RETRIEVED_Y
+        dropped = []
+        for i in range(self.num_objects):
+            if i == self.target_index and self.held == i:
+                continue  # the target on its way out in the gripper
+            x, y = poses[i, 0], poses[i, 1]
+            if y < C.FRONT_EDGE_Y or y > C.SHELF_DEPTH + 0.05 or abs(x) > C.SHELF_HALF_WIDTH + 0.05:
+                dropped.append(i)
+        reward = C.STEP_REWARD + (C.DROP_PENALTY if dropped else 0.0)
+        return StepOutcome(reward=reward, retrieved=bool(retrieved), dropped=tuple(dropped))
+
+    def _perturb(self) -> None:
+        lvl, rng = self.noise, self.rng
+        for i in range(self.num_objects):
+            v = self.nominal_vertices[i]
+            noisy = convex_hull(v + rng.normal(0.0, lvl * self.object_radius[i], size=v.shape))
+            density = max(rng.normal(C.NOMINAL_DENSITY, lvl * C.NOMINAL_DENSITY), 0.05 * C.NOMINAL_DENSITY)
+            friction = max(rng.normal(C.NOMINAL_FRICTION, lvl * C.NOMINAL_FRICTION), 0.0)
+            if len(noisy) < 3 or polygon_area(noisy) < 1e-6:  # pragma: no cover - absurd noise levels
+                noisy = v
+            self.shapes[i].unsafe_set_vertices(noisy.tolist())
+            self._set_physics(i, noisy, density, friction)
+
+    def _actuate_fingers(self, close: bool) -> None:
+        if close and not self.closed:
+            self.closed = True
+            self._close_fingers()
+        elif not close and self.closed:
+            self.closed = False
+            self.held = None
+            self._set_opening(C.GRIPPER_STROKE)
+
+    def _close_fingers(self) -> None:
+        """Close until contact; grasp the object between the fingers if it straddles the axis."""
+        gpose = self.gripper_pose()
+        h = self.opening / 2.0
+        band = transform_points(np.array([[-h, 0.0], [h, 0.0], [h, C.FINGER_LENGTH], [-h, C.FINGER_LENGTH]]), gpose)
+        inv = inverse_pose(gpose)
+        touching = [
+            (i, transform_points(poly, inv))
+            for i, poly in enumerate(self.object_world_polygons())
+            if polygons_overlap(poly, band)
+        ]
+        if len(touching) == 1:
+            i, local = touching[0]
+            xmin, xmax = local[:, 0].min(), local[:, 0].max()
+            cy = local[:, 1].mean()
+            if xmin < 0.0 < xmax and 0.0 <= cy <= C.FINGER_LENGTH and xmax - xmin <= self.opening:
+                shift = -(xmin + xmax) / 2.0  # the closing fingers centre the object
+                c, s = math.cos(gpose[2]), math.sin(gpose[2])
+                body = self.bodies[i]
+                body.position = (body.position.x + c * shift, body.position.y + s * shift)
+                self._set_opening(xmax - xmin)
+                self.held = i
+                return
+        # Fingers stop at the first contact (or close fully on nothing).
+        reach = max([max(-loc[:, 0].min(), loc[:, 0].max(), 0.0) for _, loc in touching], default=0.0)
+        self._set_opening(min(2.0 * reach, self.opening))
+
+    def _set_opening(self, opening: float) -> None:
+        self.opening = float(opening)
+        polys = gripper_polygons(self.opening)
+        self.gripper_shapes[1].unsafe_set_vertices(polys[1].tolist())
+        self.gripper_shapes[2].unsafe_set_vertices(polys[2].tolist())
