@@ -1,6 +1,24 @@
 """Shelf worlds, perception and TorchRL environments."""
 
+from occrl.envs.perception import detected_polygons, observation_from_detections
+from occrl.envs.pipeline import make_env, observation_transforms
 from occrl.envs.scene import STAGES, Scene, SceneObject
+from occrl.envs.shelf_env import ShelfEnv
+from occrl.envs.transforms import HeatmapTarget, OcclusionRender, RobotCentricCrop
 from occrl.envs.world import ShelfWorld, StepOutcome
 
-__all__ = ["Scene", "SceneObject", "STAGES", "ShelfWorld", "StepOutcome"]
+__all__ = [
+    "Scene",
+    "SceneObject",
+    "STAGES",
+    "ShelfWorld",
+    "StepOutcome",
+    "ShelfEnv",
+    "OcclusionRender",
+    "RobotCentricCrop",
+    "HeatmapTarget",
+    "make_env",
+    "observation_transforms",
+    "detected_polygons",
+    "observation_from_detections",
+]

@@ -150,6 +150,7 @@ class ShelfEnv(EnvBase):
             visible_fraction=Bounded(0.0, 1.0, shape=(*B, N), dtype=f32),
             target_slot=Categorical(N, shape=(*B, 1), dtype=torch.int64),
             target_pose=Unbounded(shape=(*B, 3), dtype=f32),
+            target_held=Categorical(2, shape=(*B, 1), dtype=torch.bool),
             shape=B,
         )
         self.observation_spec = Composite(
@@ -249,6 +250,7 @@ class ShelfEnv(EnvBase):
         frac = np.zeros((B, N), np.float32)
         target_slot = np.zeros((B, 1), np.int64)
         target_pose = np.zeros((B, 3), np.float32)
+        target_held = np.zeros((B, 1), bool)
         for i, w in enumerate(self.worlds):
             n = w.num_objects
             gp = w.gripper_pose()
@@ -277,6 +279,7 @@ class ShelfEnv(EnvBase):
             pose[i, :n] = np.where(d[:, None], poses, 0.0)
             target_slot[i, 0] = t
             target_pose[i] = poses[t]
+            target_held[i, 0] = w.held == t
         t = torch.from_numpy
         batch = self.batch_size
         return TensorDict(
@@ -301,6 +304,7 @@ class ShelfEnv(EnvBase):
                         "visible_fraction": t(frac),
                         "target_slot": t(target_slot),
                         "target_pose": t(target_pose),
+                        "target_held": t(target_held),
                     },
                     batch_size=batch,
                 ),

@@ -1,0 +1,70 @@
+"""The standard observation pipeline: ShelfEnv -> render -> robot-centric crop (-> heat-map label)."""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+from torchrl.envs import Compose, InitTracker, StepCounter, TransformedEnv
+
+from occrl.envs import world_constants as C
+from occrl.envs.robot_frame import DEFAULT_FORWARD_OFFSET, DEFAULT_SIZE, DEFAULT_WINDOW
+from occrl.envs.scene import Scene
+from occrl.envs.shelf_env import ShelfEnv
+from occrl.envs.transforms import HeatmapTarget, OcclusionRender, RobotCentricCrop
+
+__all__ = ["make_env", "observation_transforms"]
+
+
+def observation_transforms(
+    window: float = DEFAULT_WINDOW,
+    size: int = DEFAULT_SIZE,
+    forward_offset: float = DEFAULT_FORWARD_OFFSET,
+    heatmap_target: bool = True,
+) -> list:
+    """The transforms that turn detections into the network input (and its heat-map label)."""
+    ts = [OcclusionRender(), RobotCentricCrop(window=window, size=size, forward_offset=forward_offset)]
+    if heatmap_target:
+        ts.append(HeatmapTarget(window=window, size=size, forward_offset=forward_offset))
+    return ts
+
+
+def make_env(
+    batch_size: int = 1,
+    stage: int = 1,
+    noise: float = 0.0,
+    seed: int | None = None,
+    scenes: Sequence[Scene] | None = None,
+    num_objects: int | None = None,
+    max_steps: int = C.MAX_EPISODE_STEPS,
+    window: float = DEFAULT_WINDOW,
+    size: int = DEFAULT_SIZE,
+    forward_offset: float = DEFAULT_FORWARD_OFFSET,
+    heatmap_target: bool = True,
+    backend: str = "pymunk",
+) -> TransformedEnv:
+    """The standard pipeline: a batched env whose ``"pixels"`` entry is the 3x64x64 network input.
+
+    ``InitTracker`` marks episode starts (the LSTM needs them) and ``StepCounter`` counts actions.
+
+    Args:
+        batch_size: number of worlds stepped together in this process.
+        stage, noise, seed, scenes, num_objects, max_steps: see :class:`~occrl.envs.ShelfEnv`.
+        window, size, forward_offset: the robot-centric window (metres, pixels, metres).
+        heatmap_target: also render ``("privileged", "heatmap_target")`` for training.
+        backend: ``"pymunk"`` (the 2D world).
+
+    Examples:
+        >>> from occrl.envs import make_env
+        >>> env = make_env(batch_size=4, stage=1, seed=0)
+        >>> td = env.reset()
+        >>> td["pixels"].shape, float(td["pixels"].max()) <= 1.0
+        (torch.Size([4, 3, 64, 64]), True)
+    """
+    if backend != "pymunk":
+        raise ValueError(f"backend must be 'pymunk', got {backend!r}")
+    base = ShelfEnv(
+        batch_size=batch_size, stage=stage, noise=noise, seed=seed, scenes=scenes, num_objects=num_objects, max_steps=max_steps
+    )
+    transforms = [InitTracker(), StepCounter()]
+    transforms += observation_transforms(window, size, forward_offset, heatmap_target)
+    return TransformedEnv(base, Compose(*transforms))

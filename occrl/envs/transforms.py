@@ -1,0 +1,187 @@
+"""TorchRL transforms from detections to the network's robot-centric image (DESIGN section 4).
+
+``OcclusionRender`` draws the abstract observation in the shelf frame from the *detections* in
+the tensordict; ``RobotCentricCrop`` cuts the window that moves and turns with the gripper out of
+it and colours it; ``HeatmapTarget`` draws the true target footprint in the same window (a
+privileged training label for the heat-map loss).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+from tensordict import TensorDictBase
+from torchrl.data import Bounded, Composite
+from torchrl.envs.transforms import Transform
+
+from occrl.envs import world_constants as C
+from occrl.envs.geometry import point_in_convex_polygon
+from occrl.envs.perception import _world_vertices, detected_polygons
+from occrl.envs.render import DEFAULT_CANVAS, LABELS, PALETTE, Canvas, render_labels
+from occrl.envs.robot_frame import DEFAULT_FORWARD_OFFSET, DEFAULT_SIZE, DEFAULT_WINDOW, robot_centric_points
+
+__all__ = ["OcclusionRender", "RobotCentricCrop", "HeatmapTarget"]
+
+_PALETTE_FLOAT = torch.from_numpy(PALETTE.astype(np.float32) / 255.0)  # (classes, 3)
+
+
+def _flat(td: TensorDictBase) -> TensorDictBase:
+    return td.reshape(-1) if td.batch_dims != 1 else td
+
+
+class _ObservationWriter(Transform):
+    """Shared plumbing: compute on step and on reset, declare the written entry's spec."""
+
+    def __init__(self, in_keys, out_key) -> None:
+        super().__init__(in_keys=in_keys, out_keys=[out_key])
+
+    def _reset(self, tensordict: TensorDictBase, tensordict_reset: TensorDictBase) -> TensorDictBase:
+        return self._call(tensordict_reset)
+
+    def _out_spec(self, batch_shape: torch.Size):  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def transform_observation_spec(self, observation_spec: Composite) -> Composite:
+        observation_spec[self.out_keys[0]] = self._out_spec(observation_spec.shape)
+        return observation_spec
+
+
+class OcclusionRender(_ObservationWriter):
+    """Render the abstract occlusion-aware image (paper Sec. IV-A) as a shelf-frame label map.
+
+    Reads the gripper pose and opening and the detected objects (``("objects", ...)``), never
+    ``"privileged"`` entries; writes ``out_key`` (default ``"shelf_labels"``), an (H, W) uint8
+    map of the classes in :data:`occrl.envs.render.LABELS`.
+
+    Examples:
+        >>> from torchrl.envs import TransformedEnv
+        >>> from occrl.envs import ShelfEnv, OcclusionRender
+        >>> env = TransformedEnv(ShelfEnv(batch_size=2, seed=0), OcclusionRender())
+        >>> env.reset()["shelf_labels"].dtype
+        torch.uint8
+    """
+
+    def __init__(self, canvas: Canvas = DEFAULT_CANVAS, fov: float = C.CAMERA_FOV, out_key="shelf_labels") -> None:
+        super().__init__(in_keys=["gripper_pose", "gripper_opening", "objects", "target_type"], out_key=out_key)
+        self.canvas = canvas
+        self.fov = fov
+
+    def _call(self, next_tensordict: TensorDictBase) -> TensorDictBase:
+        flat = _flat(next_tensordict)
+        poses = flat.get("gripper_pose").cpu().numpy().astype(np.float64)
+        opening = flat.get("gripper_opening").cpu().numpy().reshape(-1)
+        labels = np.empty((flat.shape[0], *self.canvas.shape), dtype=np.uint8)
+        for b, (polys, is_target) in enumerate(detected_polygons(flat)):
+            labels[b] = render_labels(poses[b], float(opening[b]), polys, is_target, self.canvas, self.fov)
+        out = torch.from_numpy(labels).reshape(*next_tensordict.shape, *self.canvas.shape)
+        next_tensordict.set(self.out_keys[0], out)
+        return next_tensordict
+
+    def _out_spec(self, batch_shape):
+        return Bounded(0, len(LABELS) - 1, shape=(*batch_shape, *self.canvas.shape), dtype=torch.uint8)
+
+
+class RobotCentricCrop(_ObservationWriter):
+    """Cut the gripper-centred, gripper-aligned window out of a shelf-frame label map.
+
+    The window (``window`` metres, ``size`` pixels a side) has the approach axis pointing up and
+    its centre ``forward_offset`` ahead of the gripper. Labels are coloured with ``palette`` into a
+    (3, size, size) float image in [0, 1] under ``out_key`` (default ``"pixels"``), the network
+    input. The label map is removed unless ``keep_input`` (it is large).
+
+    Examples:
+        >>> from torchrl.envs import Compose, TransformedEnv
+        >>> from occrl.envs import ShelfEnv, OcclusionRender, RobotCentricCrop
+        >>> env = TransformedEnv(ShelfEnv(batch_size=2, seed=0), Compose(OcclusionRender(), RobotCentricCrop()))
+        >>> env.reset()["pixels"].shape
+        torch.Size([2, 3, 64, 64])
+    """
+
+    def __init__(
+        self,
+        window: float = DEFAULT_WINDOW,
+        size: int = DEFAULT_SIZE,
+        forward_offset: float = DEFAULT_FORWARD_OFFSET,
+        in_key="shelf_labels",
+        out_key="pixels",
+        canvas: Canvas = DEFAULT_CANVAS,
+        keep_input: bool = False,
+    ) -> None:
+        if size < 1 or window <= 0:
+            raise ValueError(f"window must be > 0 m and size >= 1 pixel, got window={window}, size={size}")
+        super().__init__(in_keys=[in_key, "gripper_pose"], out_key=out_key)
+        self.window, self.size, self.forward_offset = float(window), int(size), float(forward_offset)
+        self.canvas = canvas
+        self.keep_input = keep_input
+
+    def crop_labels(self, labels: np.ndarray, gripper_poses: np.ndarray) -> np.ndarray:
+        """(B, H, W) shelf-frame labels -> (B, size, size) robot-centric labels."""
+        pts = robot_centric_points(gripper_poses, self.window, self.size, self.forward_offset)
+        return self.canvas.lookup(labels, pts)
+
+    def _call(self, next_tensordict: TensorDictBase) -> TensorDictBase:
+        labels_t = next_tensordict.get(self.in_keys[0])
+        lead = labels_t.shape[:-2]
+        labels = labels_t.reshape(-1, *labels_t.shape[-2:]).numpy()
+        poses = next_tensordict.get("gripper_pose").reshape(-1, 3).cpu().numpy().astype(np.float64)
+        crop = torch.from_numpy(self.crop_labels(labels, poses).astype(np.int64))
+        pixels = _PALETTE_FLOAT[crop].permute(0, 3, 1, 2).contiguous()
+        next_tensordict.set(self.out_keys[0], pixels.reshape(*lead, 3, self.size, self.size))
+        if not self.keep_input:
+            next_tensordict.exclude(self.in_keys[0], inplace=True)
+        return next_tensordict
+
+    def _out_spec(self, batch_shape):
+        return Bounded(0.0, 1.0, shape=(*batch_shape, 3, self.size, self.size), dtype=torch.float32)
+
+    def transform_observation_spec(self, observation_spec: Composite) -> Composite:
+        observation_spec = super().transform_observation_spec(observation_spec)
+        if not self.keep_input and self.in_keys[0] in observation_spec.keys(True):
+            del observation_spec[self.in_keys[0]]
+        return observation_spec
+
+
+class HeatmapTarget(_ObservationWriter):
+    """The heat-map label: the true target footprint in the robot-centric window, (1, S, S) in {0, 1}.
+
+    Reads ``("privileged", ...)`` ground truth and writes ``("privileged", "heatmap_target")``;
+    only losses read it.
+
+    Examples:
+        >>> from torchrl.envs import TransformedEnv
+        >>> from occrl.envs import ShelfEnv, HeatmapTarget
+        >>> env = TransformedEnv(ShelfEnv(batch_size=1, seed=0), HeatmapTarget())
+        >>> env.reset()["privileged", "heatmap_target"].shape
+        torch.Size([1, 1, 64, 64])
+    """
+
+    def __init__(
+        self,
+        window: float = DEFAULT_WINDOW,
+        size: int = DEFAULT_SIZE,
+        forward_offset: float = DEFAULT_FORWARD_OFFSET,
+        out_key=("privileged", "heatmap_target"),
+    ) -> None:
+        super().__init__(in_keys=["gripper_pose", "privileged"], out_key=out_key)
+        self.window, self.size, self.forward_offset = float(window), int(size), float(forward_offset)
+
+    def _call(self, next_tensordict: TensorDictBase) -> TensorDictBase:
+        flat = _flat(next_tensordict)
+        gp = flat.get("gripper_pose").cpu().numpy().astype(np.float64)
+        priv = flat.get("privileged")
+        slot = priv.get("target_slot").cpu().numpy().reshape(-1)
+        ar = np.arange(len(slot))
+        verts = priv.get("object_vertices").cpu().numpy()[ar, slot].astype(np.float64)
+        nv = priv.get("object_num_vertices").cpu().numpy()[ar, slot]
+        pose = priv.get("target_pose").cpu().numpy().astype(np.float64)
+        world = _world_vertices(verts, pose)
+        pts = robot_centric_points(gp, self.window, self.size, self.forward_offset)
+        heat = np.zeros((len(slot), 1, self.size, self.size), np.float32)
+        for b in range(len(slot)):
+            if nv[b] >= 3:
+                heat[b, 0] = point_in_convex_polygon(pts[b], world[b, : nv[b]])
+        next_tensordict.set(self.out_keys[0], torch.from_numpy(heat).reshape(*next_tensordict.shape, 1, self.size, self.size))
+        return next_tensordict
+
+    def _out_spec(self, batch_shape):
+        return Bounded(0.0, 1.0, shape=(*batch_shape, 1, self.size, self.size), dtype=torch.float32)
