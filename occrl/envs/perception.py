@@ -48,6 +48,7 @@ def observation_from_detections(
     detections: Sequence[dict],
     target_type: int,
     target_vertices: np.ndarray,
+    gripper_closed: bool = False,
 ) -> TensorDict:
     """Build a one-element observation tensordict from a perception system's output.
 
@@ -95,6 +96,7 @@ def observation_from_detections(
         {
             "gripper_pose": torch.tensor([list(map(float, gripper_pose))], dtype=torch.float32),
             "gripper_opening": torch.tensor([[float(gripper_opening)]], dtype=torch.float32),
+            "gripper_closed": torch.tensor([[bool(gripper_closed)]]),
             "target_type": torch.tensor([[int(target_type)]]),
             "target_vertices": t(pad_polygon(tv)[None]),
             "target_num_vertices": torch.tensor([[len(tv)]]),

@@ -23,7 +23,7 @@ from occrl.envs.geometry import transform_points
 from occrl.envs.visibility import _pad, angular_extents
 from occrl.envs.world import gripper_polygons, wall_polygons
 
-__all__ = ["Canvas", "LABELS", "PALETTE", "render_labels", "labels_to_rgb", "DEFAULT_CANVAS"]
+__all__ = ["Canvas", "LABELS", "PALETTE", "render_labels", "render_true_scene", "labels_to_rgb", "DEFAULT_CANVAS", "SHELF_VIEW"]
 
 LABELS = {"observable": 0, "occluded": 1, "wall": 2, "edge": 3, "clutter": 4, "target": 5, "gripper": 6}
 PALETTE = np.array(
@@ -78,6 +78,8 @@ class Canvas:
 
 
 DEFAULT_CANVAS = Canvas()
+# A tight canvas around the shelf and the space in front of it, for pictures of the true scene.
+SHELF_VIEW = Canvas(x0=-0.32, x1=0.32, y0=-0.32, y1=0.40, resolution=0.0025)
 
 
 def _poly(draw: ImageDraw.ImageDraw, canvas: Canvas, poly: np.ndarray, label: int) -> None:
@@ -141,6 +143,27 @@ def render_labels(
         _poly(draw, canvas, poly, LABELS["target"] if tgt else LABELS["clutter"])
     for part in gripper_polygons(opening):
         _poly(draw, canvas, transform_points(part, (cx, cy, th)), LABELS["gripper"])
+    return np.asarray(img, dtype=np.uint8)
+
+
+def render_true_scene(
+    gripper_pose: np.ndarray,
+    opening: float,
+    object_polygons: Sequence[np.ndarray],
+    is_target: Sequence[bool],
+    canvas: Canvas = DEFAULT_CANVAS,
+) -> np.ndarray:
+    """The ground-truth top-down view (every object, no occlusion) as a label map, for people."""
+    img = Image.new("L", (canvas.shape[1], canvas.shape[0]), LABELS["observable"])
+    draw = ImageDraw.Draw(img)
+    for wall in _WALLS:
+        _poly(draw, canvas, wall, LABELS["wall"])
+    edge = canvas.to_pixels(np.array([[-C.SHELF_HALF_WIDTH, 0.0], [C.SHELF_HALF_WIDTH, 0.0]]))
+    draw.line([tuple(p) for p in edge.tolist()], fill=LABELS["edge"], width=2)
+    for poly, tgt in zip(object_polygons, is_target):
+        _poly(draw, canvas, poly, LABELS["target"] if tgt else LABELS["clutter"])
+    for part in gripper_polygons(opening):
+        _poly(draw, canvas, transform_points(part, gripper_pose), LABELS["gripper"])
     return np.asarray(img, dtype=np.uint8)
 
 

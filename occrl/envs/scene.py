@@ -32,7 +32,10 @@ STAGES: dict[int, dict[str, Any]] = {
     2: {"num_objects": (5, 10), "target_y": (0.0, C.SHELF_DEPTH)},
     3: {"num_objects": (7, 10), "target_y": (C.SHELF_DEPTH / 2, C.SHELF_DEPTH)},
 }
-PLACEMENT_CLEARANCE = 0.005  # gap kept between sampled objects and between objects and walls
+PLACEMENT_CLEARANCE = 0.005  # gap kept between sampled objects
+# Sampled objects keep this gap to the side and back walls: a finger (12 mm) fits beside them, so
+# every object is graspable from some side (paper Sec. III-C). Explicit scenes may go closer.
+WALL_CLEARANCE = 0.018
 GRASP_MARGIN = 0.01  # a sampled object leaves at least this much of the stroke free
 DEFAULT_GRIPPER_POSE = (0.0, -0.10, 0.0)
 _MAX_PLACEMENT_TRIES = 400
@@ -275,11 +278,12 @@ def _place_objects(rng: np.random.Generator, n: int, target_y: tuple[float, floa
         verts = random_convex_polygon(rng)
         r = float(np.linalg.norm(verts, axis=1).max())
         m = r + PLACEMENT_CLEARANCE
+        mw = r + WALL_CLEARANCE
         ylo, yhi = (target_y if is_target else (0.0, C.SHELF_DEPTH))
-        ylo, yhi = max(ylo, m), min(yhi, C.SHELF_DEPTH - m)
+        ylo, yhi = max(ylo, m), min(yhi, C.SHELF_DEPTH - mw)
         for _ in range(_MAX_PLACEMENT_TRIES):
             pose = (
-                float(rng.uniform(-C.SHELF_HALF_WIDTH + m, C.SHELF_HALF_WIDTH - m)),
+                float(rng.uniform(-C.SHELF_HALF_WIDTH + mw, C.SHELF_HALF_WIDTH - mw)),
                 float(rng.uniform(ylo, yhi)),
                 float(rng.uniform(-math.pi, math.pi)),
             )

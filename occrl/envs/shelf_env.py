@@ -49,7 +49,8 @@ class ShelfEnv(EnvBase):
 
     Observation Space:
         What a perception system reports, never ground truth:
-        ``"gripper_pose"`` (x, y, theta), ``"gripper_opening"`` (m), ``"target_type"`` and
+        ``"gripper_pose"`` (x, y, theta), ``"gripper_opening"`` (m), ``"gripper_closed"`` (the
+        last gripper command, as the robot knows it), ``"target_type"`` and
         ``"target_vertices"`` (the target's shape, a task prior) and, per object slot,
         ``("objects", "detected" | "type_id" | "pose" | "vertices" | "num_vertices")``. A slot
         is filled only while its object is more than 50 % visible from the camera; undetected
@@ -156,6 +157,7 @@ class ShelfEnv(EnvBase):
         self.observation_spec = Composite(
             gripper_pose=Unbounded(shape=(*B, 3), dtype=f32),
             gripper_opening=Bounded(0.0, C.GRIPPER_STROKE, shape=(*B, 1), dtype=f32),
+            gripper_closed=flag(),
             target_type=Categorical(MAX_TYPE_ID, shape=(*B, 1), dtype=torch.int64),
             target_vertices=Unbounded(shape=(*B, V, 2), dtype=f32),
             target_num_vertices=Categorical(V + 1, shape=(*B, 1), dtype=torch.int64),
@@ -235,6 +237,7 @@ class ShelfEnv(EnvBase):
         B, N, V = self.num_worlds, MAX_SLOTS, MAX_POLY_VERTICES
         gripper_pose = np.zeros((B, 3), np.float32)
         opening = np.zeros((B, 1), np.float32)
+        closed = np.zeros((B, 1), bool)
         target_type = np.zeros((B, 1), np.int64)
         target_vertices = np.zeros((B, V, 2), np.float32)
         target_nv = np.zeros((B, 1), np.int64)
@@ -260,6 +263,7 @@ class ShelfEnv(EnvBase):
             d = detect(f)
             gripper_pose[i] = gp
             opening[i, 0] = w.opening
+            closed[i, 0] = w.closed
             t = w.target_index
             target_type[i, 0] = w.type_ids[t]
             target_vertices[i] = pad_polygon(w.nominal_vertices[t])
@@ -286,6 +290,7 @@ class ShelfEnv(EnvBase):
             {
                 "gripper_pose": t(gripper_pose),
                 "gripper_opening": t(opening),
+                "gripper_closed": t(closed),
                 "target_type": t(target_type),
                 "target_vertices": t(target_vertices),
                 "target_num_vertices": t(target_nv),

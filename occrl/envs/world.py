@@ -40,7 +40,7 @@ from occrl.envs import world_constants as C
 from occrl.envs.geometry import convex_hull, polygon_area, polygons_overlap, transform_points
 from occrl.envs.scene import Scene
 
-__all__ = ["ShelfWorld", "StepOutcome", "gripper_polygons", "wall_polygons", "inverse_pose"]
+__all__ = ["ShelfWorld", "StepOutcome", "gripper_polygons", "wall_polygons", "inverse_pose", "grasp_candidate"]
 
 logger = logging.getLogger(__name__)
 
@@ -77,6 +77,24 @@ def inverse_pose(pose) -> tuple[float, float, float]:
     x, y, th = (float(v) for v in pose)
     c, s = math.cos(th), math.sin(th)
     return (-(c * x + s * y), -(-s * x + c * y), -th)
+
+
+def grasp_candidate(gripper_pose, opening: float, polygons: list[np.ndarray]) -> tuple[int | None, dict[int, np.ndarray]]:
+    """The grasp rule. Closing fingers of the given ``opening`` hold an object when it is the only
+    one between them, lies across the gripper axis, has its centre within the finger length and
+    is no wider than the opening. Returns its index (or None) and, for every object that reaches
+    between the fingers, its polygon in the gripper frame."""
+    h = opening / 2.0
+    band = transform_points(np.array([[-h, 0.0], [h, 0.0], [h, C.FINGER_LENGTH], [-h, C.FINGER_LENGTH]]), gripper_pose)
+    inv = inverse_pose(gripper_pose)
+    touching = {i: transform_points(p, inv) for i, p in enumerate(polygons) if polygons_overlap(p, band)}
+    if len(touching) == 1:
+        (i, local), = touching.items()
+        xmin, xmax = local[:, 0].min(), local[:, 0].max()
+        cy = local[:, 1].mean()
+        if xmin < 0.0 < xmax and 0.0 <= cy <= C.FINGER_LENGTH and xmax - xmin <= opening:
+            return i, touching
+    return None, touching
 
 
 @dataclass(frozen=True)
@@ -321,28 +339,19 @@ class ShelfWorld:
     def _close_fingers(self) -> None:
         """Close until contact; grasp the object between the fingers if it straddles the axis."""
         gpose = self.gripper_pose()
-        h = self.opening / 2.0
-        band = transform_points(np.array([[-h, 0.0], [h, 0.0], [h, C.FINGER_LENGTH], [-h, C.FINGER_LENGTH]]), gpose)
-        inv = inverse_pose(gpose)
-        touching = [
-            (i, transform_points(poly, inv))
-            for i, poly in enumerate(self.object_world_polygons())
-            if polygons_overlap(poly, band)
-        ]
-        if len(touching) == 1:
-            i, local = touching[0]
+        i, touching = grasp_candidate(gpose, self.opening, self.object_world_polygons())
+        if i is not None:
+            local = touching[i]
             xmin, xmax = local[:, 0].min(), local[:, 0].max()
-            cy = local[:, 1].mean()
-            if xmin < 0.0 < xmax and 0.0 <= cy <= C.FINGER_LENGTH and xmax - xmin <= self.opening:
-                shift = -(xmin + xmax) / 2.0  # the closing fingers centre the object
-                c, s = math.cos(gpose[2]), math.sin(gpose[2])
-                body = self.bodies[i]
-                body.position = (body.position.x + c * shift, body.position.y + s * shift)
-                self._set_opening(xmax - xmin)
-                self.held = i
-                return
+            shift = -(xmin + xmax) / 2.0  # the closing fingers centre the object
+            c, s = math.cos(gpose[2]), math.sin(gpose[2])
+            body = self.bodies[i]
+            body.position = (body.position.x + c * shift, body.position.y + s * shift)
+            self._set_opening(xmax - xmin)
+            self.held = i
+            return
         # Fingers stop at the first contact (or close fully on nothing).
-        reach = max([max(-loc[:, 0].min(), loc[:, 0].max(), 0.0) for _, loc in touching], default=0.0)
+        reach = max([max(-loc[:, 0].min(), loc[:, 0].max(), 0.0) for loc in touching.values()], default=0.0)
         self._set_opening(min(2.0 * reach, self.opening))
 
     def _set_opening(self, opening: float) -> None:

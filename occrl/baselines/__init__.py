@@ -1,0 +1,5 @@
+"""Baseline policies: the privileged scripted retriever (more arrive with the planner issues)."""
+
+from occrl.baselines.scripted import ScriptedRetriever
+
+__all__ = ["ScriptedRetriever"]

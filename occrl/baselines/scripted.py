@@ -1,0 +1,213 @@
+"""A privileged scripted retriever: it reads the true state and goes straight for the target.
+
+It is not a method of the paper. It proves that the physics allows retrieval, drives demos and
+tests, and can provide demonstrations (imitation warm start). It reads ``"privileged"`` entries,
+so it must never be used where only perception is allowed.
+
+Strategy, re-planned every step from the true state (closed loop):
+
+1. Plan a grasp: an approach angle within +-45 degrees and a lateral offset such that the target
+   fits between the open fingers across the gripper axis, no part of the gripper hits a wall on the
+   straight way in, and preferably no clutter lies in the corridor the fingers sweep (clutter
+   there would be pushed into the target and end up between the fingers with it). Straight and
+   centred grasps are preferred.
+2. Line up on the approach line behind the grasp pose, then advance along it (pushing clutter
+   outside the corridor aside) until the target sits between the fingers.
+3. Close, then pull straight out of the shelf (-y) until the target is past the front edge.
+   A grasp that missed is opened and tried again.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import torch
+from tensordict import TensorDictBase
+from tensordict.nn import TensorDictModuleBase
+
+from occrl.envs import world_constants as C
+from occrl.envs.geometry import polygons_overlap, transform_points
+from occrl.envs.perception import _world_vertices
+from occrl.envs.world import grasp_candidate, gripper_polygons, wall_polygons
+
+__all__ = ["ScriptedRetriever"]
+
+_APPROACH_ANGLES = np.radians(np.arange(-45.0, 45.1, 5.0))
+_FIT_WIDTH = C.GRIPPER_STROKE - 0.012
+_OFFSETS = np.arange(0.002, 0.0361, 0.002)
+_LATERAL_OFFSETS = np.concatenate([[0.0], np.stack([_OFFSETS, -_OFFSETS], 1).ravel()])
+_OPEN_GRIPPER = gripper_polygons(C.GRIPPER_STROKE)
+_WALLS = wall_polygons()
+_OUTSIDE_Y = -0.01  # fingertips behind this line are out of the shelf
+
+
+def _rot(v: np.ndarray, th: float) -> np.ndarray:
+    c, s = math.cos(th), math.sin(th)
+    return np.array([c * v[0] - s * v[1], s * v[0] + c * v[1]])
+
+
+def _wrap(a: float) -> float:
+    return (a + math.pi) % (2 * math.pi) - math.pi
+
+
+class ScriptedRetriever(TensorDictModuleBase):
+    """Privileged scripted policy: reach, grasp and pull out the target, writing ``"action"``.
+
+    Args:
+        lateral_tolerance: how well (m) the gripper must be lined up before it advances onto the target.
+
+    Examples:
+        >>> from occrl.envs import make_env
+        >>> from occrl.baselines import ScriptedRetriever
+        >>> env = make_env(batch_size=1, stage=1, seed=3, heatmap_target=False)
+        >>> td = env.rollout(50, policy=ScriptedRetriever())
+        >>> bool(td["next", "success"].any())
+        True
+    """
+
+    in_keys = ["gripper_pose", "gripper_opening", "gripper_closed", "privileged"]
+    out_keys = ["action"]
+
+    def __init__(self, lateral_tolerance: float = 0.005) -> None:
+        super().__init__()
+        self.lateral_tolerance = lateral_tolerance
+        self._plans: dict[bytes, tuple[float, np.ndarray]] = {}  # grasp plans by target pose
+        self._tried: dict[bytes, list[float]] = {}  # approach angles that ended with clutter in the way
+
+    def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+        flat = tensordict.reshape(-1)
+        gp = flat.get("gripper_pose").cpu().numpy().astype(float)
+        closed = flat.get("gripper_closed").cpu().numpy().reshape(-1)
+        priv = flat.get("privileged")
+        present = priv.get("object_present").cpu().numpy()
+        poses = priv.get("object_pose").cpu().numpy().astype(float)
+        world = _world_vertices(priv.get("object_vertices").cpu().numpy().astype(float), poses)
+        nv = priv.get("object_num_vertices").cpu().numpy()
+        slot = priv.get("target_slot").cpu().numpy().reshape(-1)
+        held = priv.get("target_held").cpu().numpy().reshape(-1)
+        actions = []
+        for b in range(flat.shape[0]):
+            idx = np.flatnonzero(present[b])
+            target = world[b, slot[b], : nv[b, slot[b]]]
+            clutter = [world[b, k, : nv[b, k]] for k in idx if k != slot[b]]
+            key = poses[b, slot[b]].round(3).tobytes()  # re-plan when the target moved
+            actions.append(self.act(gp[b], bool(closed[b]), bool(held[b]), target, clutter, key))
+        action = torch.as_tensor(np.stack(actions), dtype=torch.float32).reshape(*tensordict.shape, C.ACTION_DIM)
+        tensordict.set("action", action)
+        return tensordict
+
+    # ------------------------------------------------------------------ one world
+    def act(self, gripper_pose, closed: bool, held: bool, target: np.ndarray, clutter: list, key: bytes | None = None) -> np.ndarray:
+        """The action for one world from the true target and clutter polygons (shelf frame)."""
+        x, y, th = gripper_pose
+        if held:  # back out the way it came in: that corridor is clear
+            return np.array([-1.0, 0.0, 0.0, 1.0])
+        if closed:  # a missed grasp: open first
+            return np.array([0.0, 0.0, 0.0, -1.0])
+        plan = self._plans.get(key) if key is not None else None
+        if plan is None:
+            plan = plan_grasp(target, clutter, prefer_angle=th)
+            if key is not None:
+                if len(self._plans) > 4096:
+                    self._plans.clear()
+                    self._tried.clear()
+                self._plans[key] = plan
+        approach, grasp = plan
+        if grasp_candidate(gripper_pose, C.GRIPPER_STROKE, [target, *clutter])[0] == 0:
+            return np.array([0.0, 0.0, 0.0, 1.0])  # the target alone is between the fingers: close
+        e = _rot(np.array([x, y]) - grasp, -approach)  # gripper in the grasp frame: e[0] lateral, e[1] along
+        dth = _wrap(approach - th)
+        if abs(e[0]) < self.lateral_tolerance and abs(e[1]) < 0.005 and abs(dth) < math.radians(4) and key is not None:
+            # in place, yet clutter shares the space between the fingers: try another approach
+            tried = self._tried.setdefault(key, [])
+            tried.append(approach)
+            self._plans[key] = plan_grasp(target, clutter, prefer_angle=th, exclude=tried)
+            approach, grasp = self._plans[key]
+            e = _rot(np.array([x, y]) - grasp, -approach)
+            dth = _wrap(approach - th)
+        if abs(e[0]) < self.lateral_tolerance and abs(dth) < math.radians(8):
+            step_g = np.array([-e[0], -e[1]])  # lined up: advance onto the target
+        elif abs(dth) > math.radians(8) and y + math.cos(th) * C.FINGER_LENGTH > 0.0:
+            return np.array([-1.0, 0.0, 0.0, -1.0])  # turning inside the shelf sweeps clutter: back out first
+        else:
+            # line up behind the target first, backing off if too close to push it sideways
+            along = -e[1] - 0.05
+            step_g = np.array([-e[0], along if along > 0 else max(along, -C.MAX_FORWARD)])
+        return self._move(th, _rot(step_g, approach), dth, grip=-1.0)
+
+    @staticmethod
+    def _move(th: float, d_world: np.ndarray, dth: float, grip: float) -> np.ndarray:
+        lat, fwd = _rot(d_world, -th)
+        return np.clip(np.array([fwd / C.MAX_FORWARD, lat / C.MAX_LATERAL, dth / C.MAX_ROTATION, grip]), -1.0, 1.0)
+
+
+def plan_grasp(
+    target: np.ndarray, clutter: list[np.ndarray] = (), prefer_angle: float = 0.0, exclude: list[float] = ()
+) -> tuple[float, np.ndarray]:
+    """Approach angle and grasp position (gripper origin) for a target polygon (shelf frame).
+
+    Candidates (angle, lateral offset) are tried from ``prefer_angle`` (the gripper's current
+    heading, so a re-plan does not swing the arm) and centred outwards, skipping angles within 10
+    degrees of the ``exclude``d ones (approaches that already failed). The first
+    with a wall-free way in and no clutter in the finger corridor wins; failing that, the first
+    with a wall-free way in; failing that, the first that fits.
+    """
+    centre = target.mean(axis=0)
+    fits = wall_free = None
+    for a in _APPROACH_ANGLES[np.argsort(np.abs(_APPROACH_ANGLES - prefer_angle), kind="stable")]:
+        a = float(a)
+        if any(abs(a - b) < math.radians(10) for b in exclude):
+            continue
+        local = transform_points(target - centre, (0.0, 0.0, -a))
+        xmin, xmax = local[:, 0].min(), local[:, 0].max()
+        if xmax - xmin > _FIT_WIDTH:
+            continue
+        grasp_y = min(max(-local[:, 1].min() + 0.004, 0.012), C.FINGER_LENGTH - 0.006)
+        xmid = 0.5 * (xmin + xmax)
+        slack = C.GRIPPER_STROKE / 2 - 0.002
+        for off in _LATERAL_OFFSETS:
+            c = xmid + off
+            if not (xmin - c > -slack and xmax - c < slack and xmin - c < -0.003 and xmax - c > 0.003):
+                continue
+            grasp = centre + _rot(np.array([c, -grasp_y]), a)
+            if fits is None:
+                fits = (a, grasp)
+            if not _path_clear(grasp, a):
+                continue
+            if wall_free is None:
+                wall_free = (a, grasp)
+            if not any(polygons_overlap(_corridor(grasp, a), p) for p in clutter):
+                return a, grasp
+    if wall_free is not None:
+        return wall_free
+    if fits is not None:
+        return fits
+    return 0.0, centre + np.array([0.0, -0.02])  # nothing fits: aim at it straight on
+
+
+def _way_out(grasp: np.ndarray, angle: float) -> float:
+    """Distance back along the approach axis until the fingertips are out of the shelf."""
+    back_y = -math.cos(angle)
+    return max((grasp[1] + C.FINGER_LENGTH - _OUTSIDE_Y) / max(-back_y, 1e-3), 0.0)
+
+
+def _path_clear(grasp: np.ndarray, angle: float) -> bool:
+    """No part of the open gripper touches a wall at the grasp pose or on the straight line back
+    out of the shelf along the approach axis."""
+    back = _rot(np.array([0.0, -1.0]), angle)
+    dist = _way_out(grasp, angle)
+    for t in np.concatenate([[0.0], np.arange(dist, 0.0, -0.02)]):  # grasp pose first: most often blocked
+        pose = (grasp[0] + t * back[0], grasp[1] + t * back[1], angle)
+        for part in _OPEN_GRIPPER:
+            if any(polygons_overlap(transform_points(part, pose), w, clearance=0.001) for w in _WALLS):
+                return False
+    return True
+
+
+def _corridor(grasp: np.ndarray, angle: float) -> np.ndarray:
+    """What the space between the open fingers sweeps from outside the shelf to the grasp pose."""
+    h = C.GRIPPER_STROKE / 2
+    d = _way_out(grasp, angle)
+    box = np.array([[-h, -d], [h, -d], [h, C.FINGER_LENGTH], [-h, C.FINGER_LENGTH]])
+    return transform_points(box, (grasp[0], grasp[1], angle))
