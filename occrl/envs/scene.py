@@ -71,6 +71,7 @@ class Scene:
     def __post_init__(self) -> None:
         validate_objects(self.objects)
         _validate_pose("gripper_pose", self.gripper_pose)
+        _validate_gripper(self.gripper_pose, self.objects)
 
     @property
     def target_index(self) -> int:
@@ -248,6 +249,19 @@ def validate_objects(objects: Sequence[SceneObject]) -> None:
         for j in range(i + 1, len(world)):
             if polygons_overlap(world[i], world[j], clearance=-1e-9):
                 raise ValueError(f"objects {i} and {j} overlap")
+
+
+def _validate_gripper(gripper_pose, objects: Sequence[SceneObject]) -> None:
+    from occrl.envs.world import gripper_polygons, wall_polygons  # world imports this module
+
+    parts = [transform_points(p, gripper_pose) for p in gripper_polygons(C.GRIPPER_STROKE)]
+    for part in parts:
+        for w in wall_polygons():
+            if polygons_overlap(part, w, clearance=-1e-9):
+                raise ValueError(f"the open gripper at {tuple(gripper_pose)} overlaps a shelf wall")
+        for i, o in enumerate(objects):
+            if polygons_overlap(part, o.world_vertices(), clearance=-1e-9):
+                raise ValueError(f"the open gripper at {tuple(gripper_pose)} overlaps object {i}")
 
 
 # ---------------------------------------------------------------------- sampling

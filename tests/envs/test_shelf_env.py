@@ -1,0 +1,115 @@
+import numpy as np
+import pytest
+import torch
+from tensordict import TensorDict
+from torchrl.envs.utils import check_env_specs
+
+from occrl.baselines import ScriptedRetriever
+from occrl.envs import Scene, ShelfEnv, make_env
+from occrl.envs import world_constants as C
+from tests.helpers import scene
+
+
+def test_check_env_specs_on_bare_env_and_pipeline():
+    check_env_specs(ShelfEnv(batch_size=3, stage=2, seed=0))
+    check_env_specs(make_env(batch_size=2, stage=1, seed=0))
+
+
+def _random_policy(seed):
+    g = torch.Generator().manual_seed(seed)
+
+    def policy(td):
+        td["action"] = torch.rand(td.shape + (4,), generator=g) * 2 - 1
+        return td
+
+    return policy
+
+
+def test_same_seed_same_episode():
+    a = make_env(batch_size=2, stage=2, seed=7).rollout(8, _random_policy(1), break_when_any_done=False)
+    b = make_env(batch_size=2, stage=2, seed=7).rollout(8, _random_policy(1), break_when_any_done=False)
+    c = make_env(batch_size=2, stage=2, seed=8).rollout(8, _random_policy(1), break_when_any_done=False)
+    assert (a == b).all()
+    assert not torch.equal(a["privileged", "object_pose"], c["privileged", "object_pose"])
+
+
+def test_push_off_the_front_edge_ends_the_episode_with_minus_51():
+    # gripper turned to point right; its side sweeps towards -y and pushes the box off the edge
+    s = scene([(0.17, 0.022, 0.0, False), (-0.15, 0.3, 0.0, True)], gripper=(0.2, 0.08, -np.pi / 2), half=0.012)
+    env = ShelfEnv(batch_size=1, scenes=[s])
+    env.reset()
+    td = env.rollout(5, policy=lambda tensordict: tensordict.set("action", torch.tensor([[0.0, 1.0, 0.0, -1.0]])))
+    assert td["next", "dropped"][0, -1].item() and td["next", "terminated"][0, -1].item()
+    assert td["next", "reward"][0, -1].item() == -51.0
+    assert (td["next", "reward"][0, :-1] == -1.0).all()
+    assert not td["next", "success"].any()
+
+
+def test_retrieval_ends_with_success():
+    s = scene([(0.0, 0.15, 0.0, True)])
+    td = ShelfEnv(batch_size=1, scenes=[s]).rollout(C.MAX_EPISODE_STEPS, policy=ScriptedRetriever())
+    assert td["next", "success"][0, -1].item() and td["next", "terminated"][0, -1].item()
+    assert not td["next", "truncated"].any()
+    assert (td["next", "reward"] == -1.0).all()
+
+
+def test_truncation_after_max_steps():
+    env = ShelfEnv(batch_size=2, stage=1, seed=0, max_steps=4)
+    td = env.rollout(4, policy=lambda tensordict: tensordict.set("action", torch.zeros(2, 4)))
+    assert td["next", "truncated"][:, -1].all() and not td["next", "terminated"].any()
+    assert not td["next", "truncated"][:, :-1].any()
+
+
+def test_nan_action_raises_and_no_world_moves():
+    env = ShelfEnv(batch_size=3, stage=2, seed=0)
+    td = env.reset()
+    before = [w.snapshot() for w in env.worlds]
+    td["action"] = torch.zeros(3, 4)
+    td["action"][1, 2] = float("nan")
+    with pytest.raises(ValueError, match=r"world\(s\) \[1\].*NaN or inf"):
+        env.step(td)
+    for w, s in zip(env.worlds, before):
+        assert np.array_equal(w.object_poses(), s["object_poses"]) and np.array_equal(w.gripper_pose(), s["gripper_pose"])
+
+
+def test_partial_reset_only_resets_the_masked_worlds():
+    env = ShelfEnv(batch_size=2, stage=2, seed=3)
+    env.rollout(3, policy=lambda tensordict: tensordict.set("action", torch.tensor([[1.0, 0, 0, -1]] * 2)))
+    kept = env.worlds[1].gripper_pose().copy()
+    old_scene = env.worlds[1].scene
+    old_first = env.worlds[0].scene
+    env.reset(TensorDict({"_reset": torch.tensor([[True], [False]])}, batch_size=[2]))
+    assert env.worlds[1].scene is old_scene and np.array_equal(env.worlds[1].gripper_pose(), kept)
+    assert env.worlds[0].scene is not old_first
+
+
+def test_scenes_are_used_in_turn():
+    scenes = [Scene.sample(1, seed=s) for s in range(3)]
+    env = ShelfEnv(batch_size=1, scenes=scenes)
+    for k in range(4):
+        env.reset()
+        assert env.worlds[0].scene is scenes[k % 3]
+
+
+def test_undetected_slots_reveal_nothing():
+    s = scene([(0.0, 0.1, 0.0, False), (0.0, 0.28, 0.0, True)])  # the target is hidden behind the box
+    td = ShelfEnv(batch_size=1, scenes=[s]).reset()
+    det = td["objects", "detected"][0]
+    assert det.tolist()[:2] == [True, False]
+    for key in ("type_id", "pose", "vertices", "num_vertices"):
+        assert (td["objects", key][0, ~det] == 0).all()
+    assert td["privileged", "visible_fraction"][0, 1] == 0.0
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        (dict(stage=4), "stage must be one of"),
+        (dict(noise=-0.1), "noise must be in"),
+        (dict(batch_size=0), "batch_size"),
+        (dict(scenes=["not a scene"]), "scenes must be"),
+    ],
+)
+def test_bad_env_arguments(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        ShelfEnv(**kwargs)

@@ -1,0 +1,28 @@
+"""Small constructed scenes shared by the tests."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from occrl.envs import Scene
+
+
+def square(half: float) -> list[list[float]]:
+    return [[-half, -half], [half, -half], [half, half], [-half, half]]
+
+
+def scene(objects: list[tuple[float, float, float, bool]], gripper=(0.0, -0.1, 0.0), half: float = 0.02) -> Scene:
+    """Squares of half-size ``half`` at (x, y, theta), the flag marking the target."""
+    return Scene.from_objects(
+        [{"vertices": square(half), "pose": (x, y, th), "is_target": t} for x, y, th, t in objects], gripper_pose=gripper
+    )
+
+
+def world_to_crop_pixel(point, gripper_pose, window=0.8, size=64, forward_offset=0.15) -> tuple[int, int]:
+    """(row, col) of the robot-centric pixel whose centre is nearest to a shelf-frame point."""
+    from occrl.envs.robot_frame import robot_centric_points
+
+    pts = robot_centric_points(np.asarray(gripper_pose, float), window, size, forward_offset)
+    d = np.linalg.norm(pts - np.asarray(point, float), axis=-1)
+    r, c = np.unravel_index(d.argmin(), d.shape)
+    return int(r), int(c)
