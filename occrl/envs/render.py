@@ -47,11 +47,11 @@ class Canvas:
     """A shelf-frame raster: ``resolution`` metres per pixel over ``[x0, x1] x [y0, y1]``.
     Row 0 is the far side (largest y); columns run along +x."""
 
-    x0: float = -1.1
-    x1: float = 1.1
-    y0: float = -1.0
-    y1: float = 1.05
-    resolution: float = 0.00625
+    x0: float = -1.0
+    x1: float = 1.0
+    y0: float = -0.95
+    y1: float = 1.0
+    resolution: float = 0.008
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -86,6 +86,12 @@ def _poly(draw: ImageDraw.ImageDraw, canvas: Canvas, poly: np.ndarray, label: in
     draw.polygon([tuple(p) for p in canvas.to_pixels(poly).tolist()], fill=label)
 
 
+def _draw_pixel_polys(draw: ImageDraw.ImageDraw, pixel_polys: np.ndarray, label: int) -> None:
+    """Fill (P, V, 2) polygons given in pixel coordinates."""
+    for flat in pixel_polys.reshape(len(pixel_polys), -1).tolist():
+        draw.polygon(flat, fill=label)
+
+
 def render_labels(
     gripper_pose: np.ndarray,
     opening: float,
@@ -110,40 +116,64 @@ def render_labels(
         3
     """
     cx, cy, th = (float(v) for v in gripper_pose)
+    cam = np.array([cx, cy])
     img = Image.new("L", (canvas.shape[1], canvas.shape[0]), LABELS["observable"])
     draw = ImageDraw.Draw(img)
+    walls, edge, walls_padded = _static_pixels(canvas)
 
     # outside the field of view: the camera, then an arc around the back
     axis = th + math.pi / 2
-    half = fov / 2
-    arc = np.linspace(axis + half, axis - half + 2 * math.pi, 9)
-    fov_out = np.concatenate([[[cx, cy]], np.stack([cx + _FAR * np.cos(arc), cy + _FAR * np.sin(arc)], 1)])
-    _poly(draw, canvas, fov_out, LABELS["occluded"])
+    arc = _FOV_ARC[fov] if fov in _FOV_ARC else _fov_arc(fov)
+    c, s = math.cos(axis), math.sin(axis)
+    fov_out = np.concatenate([cam[None], cam + _FAR * (arc @ np.array([[c, s], [-s, c]]))])
+    draw.polygon(canvas.to_pixels(fov_out).ravel().tolist(), fill=LABELS["occluded"])
 
-    # shadows of detected objects and walls
-    casters = list(object_polygons) + _WALLS
-    padded = _pad(casters)
-    lo, hi, inside = angular_extents(padded, np.array([cx, cy, th]))
-    for k, poly in enumerate(casters):
-        if inside[k]:
-            continue
-        d = poly - np.array([cx, cy])
-        bearing = np.arctan2(d[:, 1], d[:, 0])
-        rel = np.mod(bearing - bearing[0] + math.pi, 2 * math.pi) - math.pi
-        v_lo, v_hi = poly[rel.argmin()], poly[rel.argmax()]
-        f_lo = v_lo + _FAR * (v_lo - (cx, cy)) / max(np.linalg.norm(v_lo - (cx, cy)), 1e-9)
-        f_hi = v_hi + _FAR * (v_hi - (cx, cy)) / max(np.linalg.norm(v_hi - (cx, cy)), 1e-9)
-        _poly(draw, canvas, np.array([v_lo, v_hi, f_hi, f_lo]), LABELS["occluded"])
+    # shadows of detected objects and walls: from the two silhouette vertices away from the camera
+    n = len(object_polygons)
+    padded = np.concatenate([_pad(object_polygons, C.MAX_VERTICES), walls_padded]) if n else walls_padded
+    _, _, inside, i_lo, i_hi = angular_extents(padded, np.array([cx, cy, th]), with_tangents=True)
+    ar = np.arange(len(padded))
+    v_lo, v_hi = padded[ar, i_lo], padded[ar, i_hi]
+    d_lo, d_hi = v_lo - cam, v_hi - cam
+    f_lo = v_lo + _FAR * d_lo / np.maximum(np.linalg.norm(d_lo, axis=1, keepdims=True), 1e-9)
+    f_hi = v_hi + _FAR * d_hi / np.maximum(np.linalg.norm(d_hi, axis=1, keepdims=True), 1e-9)
+    shadows = np.stack([v_lo, v_hi, f_hi, f_lo], 1)[~inside]
+    _draw_pixel_polys(draw, canvas.to_pixels(shadows), LABELS["occluded"])
 
-    for wall in _WALLS:
-        _poly(draw, canvas, wall, LABELS["wall"])
-    edge = canvas.to_pixels(np.array([[-C.SHELF_HALF_WIDTH, 0.0], [C.SHELF_HALF_WIDTH, 0.0]]))
-    draw.line([tuple(p) for p in edge.tolist()], fill=LABELS["edge"], width=2)
-    for poly, tgt in zip(object_polygons, is_target):
-        _poly(draw, canvas, poly, LABELS["target"] if tgt else LABELS["clutter"])
-    for part in gripper_polygons(opening):
-        _poly(draw, canvas, transform_points(part, (cx, cy, th)), LABELS["gripper"])
+    _draw_pixel_polys(draw, walls, LABELS["wall"])
+    draw.line(edge, fill=LABELS["edge"], width=2)
+    if n:
+        obj_px = canvas.to_pixels(padded[:n]).reshape(n, -1).tolist()
+        for k, (flat, tgt) in enumerate(zip(obj_px, is_target)):
+            draw.polygon(flat[: 2 * len(object_polygons[k])], fill=LABELS["target"] if tgt else LABELS["clutter"])
+    parts = _GRIPPER_PARTS if opening == C.GRIPPER_STROKE else np.stack(gripper_polygons(opening))
+    _draw_pixel_polys(draw, canvas.to_pixels(transform_points(parts, (cx, cy, th))), LABELS["gripper"])
     return np.asarray(img, dtype=np.uint8)
+
+
+def _fov_arc(fov: float) -> np.ndarray:
+    """Unit vectors around the back of the camera, relative to its axis (x = along the axis)."""
+    half = fov / 2
+    arc = np.linspace(half, 2 * math.pi - half, 9)
+    _FOV_ARC[fov] = np.stack([np.cos(arc), np.sin(arc)], 1)
+    return _FOV_ARC[fov]
+
+
+_FOV_ARC: dict[float, np.ndarray] = {}
+_GRIPPER_PARTS = np.stack(gripper_polygons(C.GRIPPER_STROKE))
+
+
+_STATIC_CACHE: dict[Canvas, tuple[np.ndarray, list, np.ndarray]] = {}
+
+
+def _static_pixels(canvas: Canvas) -> tuple[np.ndarray, list, np.ndarray]:
+    """Walls and front edge in pixel coordinates, and the walls padded for shadow casting
+    (they never move)."""
+    if canvas not in _STATIC_CACHE:
+        walls = canvas.to_pixels(np.stack(_WALLS))
+        edge = canvas.to_pixels(np.array([[-C.SHELF_HALF_WIDTH, 0.0], [C.SHELF_HALF_WIDTH, 0.0]]))
+        _STATIC_CACHE[canvas] = (walls, edge.ravel().tolist(), _pad(_WALLS, C.MAX_VERTICES))
+    return _STATIC_CACHE[canvas]
 
 
 def render_true_scene(

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["robot_centric_points", "DEFAULT_WINDOW", "DEFAULT_SIZE", "DEFAULT_FORWARD_OFFSET"]
+__all__ = ["robot_centric_points", "robot_centric_pixels", "DEFAULT_WINDOW", "DEFAULT_SIZE", "DEFAULT_FORWARD_OFFSET"]
 
 DEFAULT_WINDOW = 0.8  # m
 DEFAULT_SIZE = 64  # pixels
@@ -52,3 +52,21 @@ def robot_centric_points(
     x = c * grid[..., 0] - s * grid[..., 1] + poses[..., 0, None, None]
     y = s * grid[..., 0] + c * grid[..., 1] + poses[..., 1, None, None]
     return np.stack([x, y], -1)
+
+
+def robot_centric_pixels(
+    points: np.ndarray,
+    gripper_poses: np.ndarray,
+    window: float = DEFAULT_WINDOW,
+    size: int = DEFAULT_SIZE,
+    forward_offset: float = DEFAULT_FORWARD_OFFSET,
+) -> np.ndarray:
+    """The inverse map: shelf-frame ``points`` (B, K, 2) to continuous (col, row) pixel
+    coordinates of the window of each gripper pose (B, 3); integers are pixel centres."""
+    poses = np.asarray(gripper_poses, dtype=float)
+    d = np.asarray(points, dtype=float) - poses[:, None, :2]
+    c, s = np.cos(poses[:, 2])[:, None], np.sin(poses[:, 2])[:, None]
+    xl = c * d[..., 0] + s * d[..., 1]
+    yl = -s * d[..., 0] + c * d[..., 1]
+    pix = window / size
+    return np.stack([xl / pix + size / 2 - 0.5, size / 2 - (yl - forward_offset) / pix - 0.5], -1)

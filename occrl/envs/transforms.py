@@ -18,7 +18,7 @@ from occrl.envs import world_constants as C
 from occrl.envs.geometry import point_in_convex_polygon
 from occrl.envs.perception import _world_vertices, detected_polygons
 from occrl.envs.render import DEFAULT_CANVAS, LABELS, PALETTE, Canvas, render_labels
-from occrl.envs.robot_frame import DEFAULT_FORWARD_OFFSET, DEFAULT_SIZE, DEFAULT_WINDOW, robot_centric_points
+from occrl.envs.robot_frame import DEFAULT_FORWARD_OFFSET, DEFAULT_SIZE, DEFAULT_WINDOW, robot_centric_pixels, robot_centric_points
 
 __all__ = ["OcclusionRender", "RobotCentricCrop", "HeatmapTarget"]
 
@@ -27,6 +27,21 @@ _PALETTE_FLOAT = torch.from_numpy(PALETTE.astype(np.float32) / 255.0)  # (classe
 
 def _flat(td: TensorDictBase) -> TensorDictBase:
     return td.reshape(-1) if td.batch_dims != 1 else td
+
+
+def _fill_pixel_centres(image: np.ndarray, polygon_px: np.ndarray) -> None:
+    """Set to 1 the pixels of ``image`` whose centres lie in a convex CCW polygon given in
+    pixel (col, row) coordinates. Only the polygon's bounding box is tested."""
+    h, w = image.shape
+    c0, r0 = np.maximum(np.floor(polygon_px.min(0)).astype(int), 0)
+    c1, r1 = np.minimum(np.ceil(polygon_px.max(0)).astype(int), [w - 1, h - 1])
+    if c1 < c0 or r1 < r0:
+        return
+    cols, rows = np.meshgrid(np.arange(c0, c1 + 1), np.arange(r0, r1 + 1))
+    pts = np.stack([cols, rows], -1).astype(float)
+    # rows grow downwards, which mirrors the polygon: it is clockwise in (col, row)
+    inside = point_in_convex_polygon(pts, polygon_px[::-1])
+    image[r0 : r1 + 1, c0 : c1 + 1][inside] = 1.0
 
 
 class _ObservationWriter(Transform):
@@ -173,13 +188,12 @@ class HeatmapTarget(_ObservationWriter):
         ar = np.arange(len(slot))
         verts = priv.get("object_vertices").cpu().numpy()[ar, slot].astype(np.float64)
         nv = priv.get("object_num_vertices").cpu().numpy()[ar, slot]
-        pose = priv.get("target_pose").cpu().numpy().astype(np.float64)
-        world = _world_vertices(verts, pose)
-        pts = robot_centric_points(gp, self.window, self.size, self.forward_offset)
+        world = _world_vertices(verts, priv.get("target_pose").cpu().numpy().astype(np.float64))
+        pix = robot_centric_pixels(world, gp, self.window, self.size, self.forward_offset)
         heat = np.zeros((len(slot), 1, self.size, self.size), np.float32)
         for b in range(len(slot)):
             if nv[b] >= 3:
-                heat[b, 0] = point_in_convex_polygon(pts[b], world[b, : nv[b]])
+                _fill_pixel_centres(heat[b, 0], pix[b, : nv[b]])
         next_tensordict.set(self.out_keys[0], torch.from_numpy(heat).reshape(*next_tensordict.shape, 1, self.size, self.size))
         return next_tensordict
 

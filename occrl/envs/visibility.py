@@ -28,9 +28,9 @@ def camera_pose(gripper_pose: np.ndarray) -> np.ndarray:
     return np.asarray(gripper_pose, dtype=float)
 
 
-def _pad(polygons: Sequence[np.ndarray]) -> np.ndarray:
+def _pad(polygons: Sequence[np.ndarray], size: int | None = None) -> np.ndarray:
     """(P, V, 2) with each polygon padded by repeating its first vertex (zero-length edges)."""
-    vmax = max(len(p) for p in polygons)
+    vmax = size if size is not None else max(len(p) for p in polygons)
     out = np.empty((len(polygons), vmax, 2))
     for k, p in enumerate(polygons):
         out[k, : len(p)] = p
@@ -38,9 +38,11 @@ def _pad(polygons: Sequence[np.ndarray]) -> np.ndarray:
     return out
 
 
-def angular_extents(polys: np.ndarray, cam: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def angular_extents(polys: np.ndarray, cam: np.ndarray, with_tangents: bool = False):
     """Bearing interval ``[lo, hi]`` of each padded polygon seen from ``cam`` = (x, y, heading),
-    in radians relative to the camera axis, and whether the camera is inside the polygon."""
+    in radians relative to the camera axis, and whether the camera is inside the polygon.
+    With ``with_tangents`` also the indices of the vertices at ``lo`` and ``hi`` (the
+    silhouette vertices, where shadows start)."""
     cx, cy, th = cam
     d = polys - np.array([cx, cy])
     # bearings relative to the camera axis (+y of the gripper frame is heading th + pi/2)
@@ -54,6 +56,8 @@ def angular_extents(polys: np.ndarray, cam: np.ndarray) -> tuple[np.ndarray, np.
     e = np.roll(polys, -1, axis=1) - polys
     cross = e[..., 0] * (cy - polys[..., 1]) - e[..., 1] * (cx - polys[..., 0])
     inside = np.all(cross >= 0, axis=-1)
+    if with_tangents:
+        return lo, hi, inside, rel.argmin(-1), rel.argmax(-1)
     return lo, hi, inside
 
 

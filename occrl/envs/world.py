@@ -45,6 +45,8 @@ __all__ = ["ShelfWorld", "StepOutcome", "gripper_polygons", "wall_polygons", "in
 logger = logging.getLogger(__name__)
 
 _GRIPPER_GROUP = 1  # shapes in this group never collide with each other (gripper + held object)
+_IN_GRIPPER_GROUP = pymunk.ShapeFilter(group=_GRIPPER_GROUP)
+_NO_GROUP = pymunk.ShapeFilter()
 
 
 def gripper_polygons(opening: float) -> list[np.ndarray]:
@@ -70,6 +72,13 @@ def wall_polygons() -> list[np.ndarray]:
 
 def _box(x0: float, y0: float, x1: float, y1: float) -> np.ndarray:
     return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], dtype=float)
+
+
+def _limited(constraint: pymunk.Constraint, max_bias: float, max_force: float) -> pymunk.Constraint:
+    """Set a joint's limits through the C API (the attribute setters are slow in a hot loop)."""
+    _cp.cpConstraintSetMaxBias(constraint._constraint, max_bias)
+    _cp.cpConstraintSetMaxForce(constraint._constraint, max_force)
+    return constraint
 
 
 def inverse_pose(pose) -> tuple[float, float, float]:
@@ -178,6 +187,7 @@ class ShelfWorld:
         space.add(self.control, self.gripper, *self.bodies)
         self._constraints: list[pymunk.Constraint] = []
         self._shapes_in_space = False
+        self._filtered: int | None = None  # object whose shape is in the gripper's group
         for i in range(self.num_objects):
             self._set_physics(i, self.nominal_vertices[i], C.NOMINAL_DENSITY, C.NOMINAL_FRICTION)
         self._set_poses(np.asarray(scene.gripper_pose, float), np.array([o.pose for o in scene.objects], float))
@@ -210,24 +220,24 @@ class ShelfWorld:
             space.remove(*self.gripper_shapes, *self.shapes, *self._constraints)
         _cp.cpSpaceSetShapeIDCounter(space._space, self._shape_id_base)
         static = space.static_body
-        drive = pymunk.PivotJoint(self.control, self.gripper, (0, 0), (0, 0))
-        drive.max_bias, drive.max_force = C.GRIPPER_MAX_SPEED, C.GRIPPER_MAX_FORCE
-        turn = pymunk.GearJoint(self.control, self.gripper, 0.0, 1.0)
-        turn.max_bias, turn.max_force = 10 * C.GRIPPER_MAX_SPEED, C.GRIPPER_MAX_TORQUE
+        drive = _limited(pymunk.PivotJoint(self.control, self.gripper, (0, 0), (0, 0)), C.GRIPPER_MAX_SPEED, C.GRIPPER_MAX_FORCE)
+        turn = _limited(pymunk.GearJoint(self.control, self.gripper, 0.0, 1.0), 10 * C.GRIPPER_MAX_SPEED, C.GRIPPER_MAX_TORQUE)
         cons = [drive, turn]
         for i, body in enumerate(self.bodies):
-            fp = pymunk.PivotJoint(static, body, (0, 0), (0, 0))
-            fp.max_bias, fp.max_force = 0.0, self.floor_force[i]
-            fg = pymunk.GearJoint(static, body, 0.0, 1.0)
-            fg.max_bias, fg.max_force = 0.0, self.floor_force[i] * self.floor_arm[i]
-            cons += [fp, fg]
+            force = float(self.floor_force[i])
+            cons.append(_limited(pymunk.PivotJoint(static, body, (0, 0), (0, 0)), 0.0, force))
+            cons.append(_limited(pymunk.GearJoint(static, body, 0.0, 1.0), 0.0, force * float(self.floor_arm[i])))
         if self.held is not None:
             body = self.bodies[self.held]
             weld = pymunk.PivotJoint(self.gripper, body, self.gripper.world_to_local(body.position), (0, 0))
             lock = pymunk.GearJoint(self.gripper, body, body.angle - self.gripper.angle, 1.0)
             cons += [weld, lock]
-        for i, shape in enumerate(self.shapes):
-            shape.filter = pymunk.ShapeFilter(group=_GRIPPER_GROUP if i == self.held else 0)
+        if self._filtered != self.held:  # the held object does not collide with the gripper
+            if self._filtered is not None:
+                self.shapes[self._filtered].filter = _NO_GROUP
+            if self.held is not None:
+                self.shapes[self.held].filter = _IN_GRIPPER_GROUP
+            self._filtered = self.held
         space.add(*self.gripper_shapes, *self.shapes, *cons)
         self._constraints = cons
         self._shapes_in_space = True
