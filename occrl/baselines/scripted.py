@@ -27,7 +27,7 @@ from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
 
 from occrl.envs import world_constants as C
-from occrl.envs.geometry import polygons_overlap, transform_points
+from occrl.envs.geometry import convex_hull, polygons_overlap, transform_points
 from occrl.envs.perception import _world_vertices
 from occrl.envs.world import grasp_candidate, gripper_polygons, wall_polygons
 
@@ -40,6 +40,7 @@ _LATERAL_OFFSETS = np.concatenate([[0.0], np.stack([_OFFSETS, -_OFFSETS], 1).rav
 _OPEN_GRIPPER = gripper_polygons(C.GRIPPER_STROKE)
 _WALLS = wall_polygons()
 _OUTSIDE_Y = -0.01  # fingertips behind this line are out of the shelf
+_PLAN_RESOLUTION = np.array([0.004, 0.004, 0.05])  # target motion (m, m, rad) that triggers a re-plan
 
 
 def _rot(v: np.ndarray, th: float) -> np.ndarray:
@@ -75,6 +76,11 @@ class ScriptedRetriever(TensorDictModuleBase):
         self._plans: dict[bytes, tuple[float, np.ndarray]] = {}  # grasp plans by target pose
         self._tried: dict[bytes, list[float]] = {}  # approach angles that ended with clutter in the way
 
+    def reset(self) -> None:
+        """Forget cached grasp plans (call between batches of episodes for exact repeatability)."""
+        self._plans.clear()
+        self._tried.clear()
+
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
         flat = tensordict.reshape(-1)
         gp = flat.get("gripper_pose").cpu().numpy().astype(float)
@@ -91,7 +97,7 @@ class ScriptedRetriever(TensorDictModuleBase):
             idx = np.flatnonzero(present[b])
             target = world[b, slot[b], : nv[b, slot[b]]]
             clutter = [world[b, k, : nv[b, k]] for k in idx if k != slot[b]]
-            key = poses[b, slot[b]].round(3).tobytes()  # re-plan when the target moved
+            key = (poses[b, slot[b]] / _PLAN_RESOLUTION).round().tobytes()  # re-plan when the target moved
             actions.append(self.act(gp[b], bool(closed[b]), bool(held[b]), target, clutter, key))
         action = torch.as_tensor(np.stack(actions), dtype=torch.float32).reshape(*tensordict.shape, C.ACTION_DIM)
         tensordict.set("action", action)
@@ -149,11 +155,14 @@ def plan_grasp(
 
     Candidates (angle, lateral offset) are tried from ``prefer_angle`` (the gripper's current
     heading, so a re-plan does not swing the arm) and centred outwards, skipping angles within 10
-    degrees of the ``exclude``d ones (approaches that already failed). The first
-    with a wall-free way in and no clutter in the finger corridor wins; failing that, the first
-    with a wall-free way in; failing that, the first that fits.
+    degrees of the ``exclude``d ones (approaches that already failed). The first with a wall-free
+    way in and no clutter in the finger corridor wins; failing that, the first with a wall-free
+    way in; failing that, the first that fits. The corridor test uses each clutter object's
+    bounding box in the approach frame (conservative).
     """
     centre = target.mean(axis=0)
+    h = C.GRIPPER_STROKE / 2
+    slack = h - 0.002
     fits = wall_free = None
     for a in _APPROACH_ANGLES[np.argsort(np.abs(_APPROACH_ANGLES - prefer_angle), kind="stable")]:
         a = float(a)
@@ -164,21 +173,27 @@ def plan_grasp(
         if xmax - xmin > _FIT_WIDTH:
             continue
         grasp_y = min(max(-local[:, 1].min() + 0.004, 0.012), C.FINGER_LENGTH - 0.006)
-        xmid = 0.5 * (xmin + xmax)
-        slack = C.GRIPPER_STROKE / 2 - 0.002
-        for off in _LATERAL_OFFSETS:
-            c = xmid + off
-            if not (xmin - c > -slack and xmax - c < slack and xmin - c < -0.003 and xmax - c > 0.003):
-                continue
-            grasp = centre + _rot(np.array([c, -grasp_y]), a)
+        cs = 0.5 * (xmin + xmax) + _LATERAL_OFFSETS
+        ok = (xmin - cs > -slack) & (xmax - cs < slack) & (xmin - cs < -0.003) & (xmax - cs > 0.003)
+        if not ok.any():
+            continue
+        grasps = centre + np.stack([cs, np.full_like(cs, -grasp_y)], 1) @ np.array([[math.cos(a), math.sin(a)], [-math.sin(a), math.cos(a)]])
+        # finger corridor in the approach frame (centred on the target): x in [c - h, c + h],
+        # y from where the fingertips leave the shelf to the fingertips at the grasp pose
+        out = np.array([_way_out(g, a) for g in grasps])
+        y_lo, y_hi = -grasp_y - out, -grasp_y + C.FINGER_LENGTH
+        corridor_free = np.ones(len(cs), bool)
+        for poly in clutter:
+            p = transform_points(poly - centre, (0.0, 0.0, -a))
+            px0, px1, py0, py1 = p[:, 0].min(), p[:, 0].max(), p[:, 1].min(), p[:, 1].max()
+            corridor_free &= ~((px1 > cs - h) & (px0 < cs + h) & (py1 > y_lo) & (py0 < y_hi))
+        for k in np.flatnonzero(ok):
             if fits is None:
-                fits = (a, grasp)
-            if not _path_clear(grasp, a):
-                continue
-            if wall_free is None:
-                wall_free = (a, grasp)
-            if not any(polygons_overlap(_corridor(grasp, a), p) for p in clutter):
-                return a, grasp
+                fits = (a, grasps[k])
+            if (corridor_free[k] or wall_free is None) and _path_clear(grasps[k], a):
+                if corridor_free[k]:
+                    return a, grasps[k]
+                wall_free = (a, grasps[k])
     if wall_free is not None:
         return wall_free
     if fits is not None:
@@ -194,14 +209,14 @@ def _way_out(grasp: np.ndarray, angle: float) -> float:
 
 def _path_clear(grasp: np.ndarray, angle: float) -> bool:
     """No part of the open gripper touches a wall at the grasp pose or on the straight line back
-    out of the shelf along the approach axis."""
+    out of the shelf along the approach axis. A part translated along a line sweeps the convex
+    hull of its start and end outlines, so one separating-axis test per part and wall suffices."""
     back = _rot(np.array([0.0, -1.0]), angle)
-    dist = _way_out(grasp, angle)
-    for t in np.concatenate([[0.0], np.arange(dist, 0.0, -0.02)]):  # grasp pose first: most often blocked
-        pose = (grasp[0] + t * back[0], grasp[1] + t * back[1], angle)
-        for part in _OPEN_GRIPPER:
-            if any(polygons_overlap(transform_points(part, pose), w, clearance=0.001) for w in _WALLS):
-                return False
+    far = grasp + _way_out(grasp, angle) * back
+    for part in _OPEN_GRIPPER:
+        swept = convex_hull(np.concatenate([transform_points(part, (*grasp, angle)), transform_points(part, (*far, angle))]))
+        if any(polygons_overlap(swept, w, clearance=0.001) for w in _WALLS):
+            return False
     return True
 
 

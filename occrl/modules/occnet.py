@@ -1,0 +1,130 @@
+"""OccNet: the three-headed recurrent network of the paper, assembled from TorchRL modules.
+
+Data flow (keys in the tensordict)::
+
+    "pixels" --ConvEncoder--> "embed" --LSTMModule--> "belief" --+--PolicyHead--> "loc", "scale" -> "action"
+                                                                 +--ValueHead---> "state_value"
+                                                                 +--HeatmapHead-> "heatmap_logits", "heatmap"
+
+Every piece is a TensorDict module, so users can swap one (another encoder writing ``"embed"``,
+another head reading ``"belief"``) and keep the rest.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from typing import Sequence
+
+import torch
+from tensordict.nn import TensorDictModule, TensorDictSequential
+from torch import nn
+from torchrl.envs import TensorDictPrimer
+from torchrl.modules import IndependentNormal, LSTMModule, ProbabilisticActor, ValueOperator
+
+from occrl.envs import world_constants as C
+from occrl.modules.encoder import ConvEncoder
+from occrl.modules.heads import HeatmapHead, PolicyHead, ValueHead
+
+__all__ = ["OccNetConfig", "OccNet", "make_occnet", "PRESETS"]
+
+
+@dataclass(frozen=True)
+class OccNetConfig:
+    """Architecture of an OccNet. ``PRESETS["paper"]`` is the paper's (Sec. VI-B)."""
+
+    conv_channels: tuple[int, ...] = (8, 8, 16)
+    image_size: int = 64
+    lstm_hidden: int = 128
+    policy_hidden: tuple[int, ...] = (128, 128)
+    value_hidden: tuple[int, ...] = (128, 64)
+    heatmap_channels: tuple[int, ...] = (8, 8, 16)
+    heatmap: bool = True
+    batch_norm: bool = True
+    action_dim: int = C.ACTION_DIM
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+PRESETS: dict[str, OccNetConfig] = {"paper": OccNetConfig()}
+
+
+class OccNet(nn.Module):
+    """The assembled network. Attributes are TorchRL modules users can run or swap:
+
+    * ``trunk``: encoder + LSTM, writes ``"belief"`` (recurrent; needs ``"is_init"``).
+    * ``actor``: ``ProbabilisticActor`` head on ``"belief"`` writing ``"action"`` (and its log-prob).
+    * ``critic``: ``ValueOperator`` head on ``"belief"`` writing ``"state_value"``.
+    * ``heatmap_head``: writes ``"heatmap_logits"`` and ``"heatmap"`` (or None without a heat-map head).
+    * ``policy``: trunk + actor, a recurrent ``ProbabilisticActor`` for ``env.rollout`` and collectors.
+    * ``value``: trunk + critic.
+    * ``heatmap``: trunk + heat-map head.
+    """
+
+    def __init__(self, config: OccNetConfig) -> None:
+        super().__init__()
+        self.config = config
+        encoder = ConvEncoder(3, config.conv_channels, config.image_size, config.batch_norm)
+        self.encoder = TensorDictModule(encoder, in_keys=["pixels"], out_keys=["embed"])
+        self.lstm = LSTMModule(input_size=encoder.out_features, hidden_size=config.lstm_hidden, in_key="embed", out_key="belief")
+        self.trunk = TensorDictSequential(self.encoder, self.lstm)
+        head = TensorDictModule(PolicyHead(config.lstm_hidden, config.policy_hidden, config.action_dim), in_keys=["belief"], out_keys=["loc", "scale"])
+        self.actor = ProbabilisticActor(
+            head,
+            in_keys=["loc", "scale"],
+            out_keys=["action"],
+            distribution_class=IndependentNormal,
+            return_log_prob=True,
+            log_prob_key="action_log_prob",
+        )
+        self.critic = ValueOperator(ValueHead(config.lstm_hidden, config.value_hidden), in_keys=["belief"])
+        if config.heatmap:
+            self.heatmap_head = TensorDictSequential(
+                TensorDictModule(HeatmapHead(config.lstm_hidden, config.heatmap_channels, config.image_size), in_keys=["belief"], out_keys=["heatmap_logits"]),
+                TensorDictModule(torch.sigmoid, in_keys=["heatmap_logits"], out_keys=["heatmap"]),
+            )
+        else:
+            self.heatmap_head = None
+        self.policy = ProbabilisticActor(
+            TensorDictSequential(self.trunk, head),
+            in_keys=["loc", "scale"],
+            out_keys=["action"],
+            distribution_class=IndependentNormal,
+            return_log_prob=True,
+            log_prob_key="action_log_prob",
+        )
+        self.value = TensorDictSequential(self.trunk, self.critic)
+        self.heatmap = TensorDictSequential(self.trunk, self.heatmap_head) if self.heatmap_head is not None else None
+
+    def make_primer(self) -> TensorDictPrimer:
+        """The env transform that adds the LSTM's recurrent state entries (zeros at reset)."""
+        return self.lstm.make_tensordict_primer()
+
+    def num_parameters(self) -> int:
+        return sum(p.numel() for p in self.parameters())
+
+
+def make_occnet(preset: str | OccNetConfig = "paper", heatmap: bool = True, **overrides) -> OccNet:
+    """Build the network of a named preset (``"paper"``) or a given config.
+
+    ``heatmap=False`` builds the net without the heat-map head (greedy/stochastic baselines).
+
+    Examples:
+        >>> import torch
+        >>> from occrl.envs import make_env
+        >>> from occrl.modules import make_occnet
+        >>> net = make_occnet("paper")
+        >>> env = make_env(batch_size=2, seed=0).append_transform(net.make_primer())
+        >>> td = net.policy(env.reset())
+        >>> td["action"].shape, td["belief"].shape
+        (torch.Size([2, 4]), torch.Size([2, 128]))
+    """
+    if isinstance(preset, OccNetConfig):
+        config = preset
+    elif preset in PRESETS:
+        config = PRESETS[preset]
+    else:
+        raise ValueError(f"unknown preset {preset!r}; available: {sorted(PRESETS)}")
+    fields = {**config.to_dict(), "heatmap": heatmap, **overrides}
+    fields = {k: tuple(v) if isinstance(v, list) else v for k, v in fields.items()}
+    return OccNet(OccNetConfig(**fields))

@@ -1,0 +1,151 @@
+"""PPO with the heat-map loss (paper Sec. V, DESIGN section 6).
+
+``loss = loss_objective + loss_critic + loss_entropy + loss_heatmap`` where the first three are
+TorchRL's :class:`~torchrl.objectives.ClipPPOLoss` terms (clipped policy loss, c1 x value loss,
+-c2 x entropy) and ``loss_heatmap`` is c3 x the pixel-wise binary cross-entropy between the
+heat-map head and the true target footprint ``("privileged", "heatmap_target")``.
+
+The shared trunk (encoder + LSTM) runs once per batch in recurrent mode, so gradients of every
+term flow back through time; the heads then read ``"belief"`` from the tensordict.
+"""
+
+from __future__ import annotations
+
+import torch
+import torch.nn.functional as F
+from tensordict import TensorDict, TensorDictBase
+from torchrl.modules import set_recurrent_mode
+from torchrl.objectives import ClipPPOLoss
+from torchrl.objectives.value.functional import generalized_advantage_estimate
+
+from occrl.envs import world_constants as C
+from occrl.modules.occnet import OccNet
+
+__all__ = ["PPOHeatmapLoss", "heatmap_bce", "heatmap_loss", "compute_advantages", "imitation_nll"]
+
+HEATMAP_TARGET_KEY = ("privileged", "heatmap_target")
+
+
+def heatmap_bce(logits: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+    """Mean pixel-wise binary cross-entropy of the heat-map (computed on logits for stability)."""
+    return F.binary_cross_entropy_with_logits(logits, target)
+
+
+def heatmap_loss(heatmap_head, td: TensorDictBase, fraction: float = 1.0) -> torch.Tensor:
+    """BCE of the heat-map head on ``td`` (which holds ``"belief"``). With ``fraction`` < 1 only
+    a random subset of the frames is decoded: an unbiased estimate at a fraction of the cost
+    (the decoder is the most expensive part of the network on a CPU)."""
+    flat = td.reshape(-1)
+    if fraction < 1.0:
+        n = flat.shape[0]
+        flat = flat[torch.randperm(n)[: max(1, int(round(fraction * n)))]]
+    logits = heatmap_head(flat.select("belief").copy()).get("heatmap_logits")
+    return heatmap_bce(logits, flat.get(HEATMAP_TARGET_KEY))
+
+
+class PPOHeatmapLoss(ClipPPOLoss):
+    """ClipPPOLoss on an :class:`~occrl.modules.OccNet` plus the c3-weighted heat-map BCE.
+
+    Args:
+        net: the network; its trunk, actor, critic and heat-map head are trained together.
+        clip_epsilon, entropy_coeff (c2), critic_coeff (c1): PPO settings (paper: 0.2, 0.01, 0.5).
+        heatmap_coeff: c3 (paper 1.0); ignored for a net without heat-map head.
+        gamma: discount (paper 0.995).
+        heatmap_fraction: share of frames whose heat-map is decoded for the loss (1.0 = all).
+
+    The input tensordict has batch dims [B, T] (B sequences of T steps) and carries
+    ``"advantage"`` and ``"value_target"`` (see :func:`compute_advantages`).
+
+    Examples:
+        >>> import torch
+        >>> from occrl.envs import make_env
+        >>> from occrl.modules import make_occnet
+        >>> from occrl.objectives import PPOHeatmapLoss, compute_advantages
+        >>> from torchrl.envs.utils import ExplorationType, set_exploration_type
+        >>> net = make_occnet("paper").eval()
+        >>> env = make_env(batch_size=2, seed=0).append_transform(net.make_primer())
+        >>> with torch.no_grad(), set_exploration_type(ExplorationType.RANDOM):
+        ...     data = env.rollout(4, net.policy, break_when_any_done=False)
+        >>> data = compute_advantages(net, data)
+        >>> losses = PPOHeatmapLoss(net)(data)
+        >>> sorted(k for k in losses.keys() if k.startswith("loss_"))
+        ['loss_critic', 'loss_entropy', 'loss_heatmap', 'loss_objective']
+    """
+
+    def __init__(
+        self,
+        net: OccNet,
+        clip_epsilon: float = 0.2,
+        entropy_coeff: float = 0.01,
+        critic_coeff: float = 0.5,
+        heatmap_coeff: float = 1.0,
+        gamma: float = C.GAMMA,
+        normalize_advantage: bool = True,
+        heatmap_fraction: float = 1.0,
+    ) -> None:
+        super().__init__(
+            actor_network=net.actor,
+            critic_network=net.critic,
+            clip_epsilon=clip_epsilon,
+            entropy_coeff=entropy_coeff,
+            critic_coeff=critic_coeff,
+            loss_critic_type="l2",
+            normalize_advantage=normalize_advantage,
+        )
+        self.gamma = gamma  # advantages are computed before the loss (compute_advantages)
+        # set after ClipPPOLoss.__init__: plain submodules, trained through "belief"
+        self.trunk = net.trunk
+        self.heatmap_head = net.heatmap_head
+        self.heatmap_coeff = heatmap_coeff
+        self.heatmap_fraction = heatmap_fraction
+
+    def forward(self, tensordict: TensorDictBase) -> TensorDict:
+        td = tensordict.copy()
+        with set_recurrent_mode(True):
+            td = self.trunk(td)
+        out = super().forward(td)
+        if self.heatmap_head is not None and self.heatmap_coeff > 0:
+            out.set("loss_heatmap", self.heatmap_coeff * heatmap_loss(self.heatmap_head, td, self.heatmap_fraction))
+        return out
+
+
+def imitation_nll(net: OccNet, tensordict: TensorDictBase, min_scale: float = 0.1) -> torch.Tensor:
+    """Negative log-likelihood of ``"expert_action"`` under the policy (DAgger warm start).
+
+    The trunk must already have written ``"belief"`` (with gradients). The standard deviation is
+    floored at ``min_scale`` in this loss so imitation does not collapse exploration for PPO.
+    """
+    td = net.actor.module[0](tensordict.select("belief").copy())
+    loc, scale = td.get("loc"), td.get("scale").clamp_min(min_scale)
+    dist = torch.distributions.Normal(loc, scale)
+    return -dist.log_prob(tensordict.get("expert_action")).sum(-1).mean()
+
+
+@torch.no_grad()
+def compute_advantages(net: OccNet, data: TensorDictBase, gamma: float = C.GAMMA, lmbda: float = 0.95) -> TensorDictBase:
+    """Write ``"state_value"``, ``"advantage"`` and ``"value_target"`` into a [B, T] batch.
+
+    Values come from the current net. The value of each ``"next"`` observation is exact: one LSTM
+    step from the recurrent state stored after the step (``("next", "recurrent_state_*")``), so
+    truncated episodes and batch ends are bootstrapped correctly.
+    """
+    B, T = data.shape
+    with set_recurrent_mode(True):
+        value = net.critic(net.trunk(data.copy())).get("state_value")
+    nxt = data.get("next").reshape(-1).copy()
+    nxt.set("is_init", torch.zeros_like(nxt.get("is_init")))
+    with set_recurrent_mode(False):
+        next_value = net.critic(net.trunk(nxt)).get("state_value").reshape(B, T, 1)
+    adv, target = generalized_advantage_estimate(
+        gamma,
+        lmbda,
+        value,
+        next_value,
+        data.get(("next", "reward")),
+        data.get(("next", "done")),
+        data.get(("next", "terminated")),
+    )
+    data.set("state_value", value)
+    data.set("advantage", adv)
+    data.set("value_target", target)
+    return data

@@ -1,0 +1,20 @@
+"""Training: configs (presets), curriculum, DAgger warm start, checkpoints, the trainer."""
+
+from occrl.training.checkpoint import CheckpointError, load_checkpoint, load_weights, save_checkpoint, save_weights
+from occrl.training.config import TRAIN_PRESETS, TrainConfig, get_train_config
+from occrl.training.curriculum import Curriculum
+from occrl.training.trainer import Trainer, episode_stats
+
+__all__ = [
+    "TrainConfig",
+    "TRAIN_PRESETS",
+    "get_train_config",
+    "Curriculum",
+    "Trainer",
+    "episode_stats",
+    "CheckpointError",
+    "save_checkpoint",
+    "load_checkpoint",
+    "save_weights",
+    "load_weights",
+]

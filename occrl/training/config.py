@@ -1,0 +1,94 @@
+"""Training configurations ("presets"). Results always name the preset they come from."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, fields, replace
+
+from occrl.envs import world_constants as C
+
+__all__ = ["TrainConfig", "TRAIN_PRESETS", "get_train_config"]
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Everything that defines a training run (besides the seed and the run folder).
+
+    ``frames_per_batch = num_envs * steps_per_env``; every iteration starts all episodes afresh
+    (``reset_at_each_iter``), which makes runs resumable exactly from a checkpoint.
+    """
+
+    preset: str = "paper"
+    net_preset: str = "paper"
+    heatmap: bool = True
+    # collection
+    num_envs: int = 30
+    steps_per_env: int = 50
+    collector: str = "single"  # "single" | "multi" (MultiSyncCollector, one env batch per worker)
+    workers: int = 2
+    # optimisation
+    optimizer: str = "rmsprop"  # "rmsprop" | "adam"
+    lr: float = 5e-5
+    epochs: int = 4
+    minibatch_envs: int = 10  # sequences per minibatch (each steps_per_env long)
+    max_grad_norm: float = 0.5
+    clip_epsilon: float = 0.2
+    critic_coeff: float = 0.5  # c1
+    entropy_coeff: float = 0.01  # c2
+    heatmap_coeff: float = 1.0  # c3
+    heatmap_fraction: float = 1.0  # share of frames whose heat-map is decoded per minibatch
+    batch_norm_frames: int = 1500  # frames used to refresh batch-norm statistics per iteration
+    gamma: float = C.GAMMA
+    gae_lambda: float = 0.95
+    # imitation warm start (DAgger on the privileged scripted retriever); 0 = PPO from scratch
+    imitation_iters: int = 0
+    imitation_beta_iters: int = 10  # expert acts with probability decaying 1 -> 0 over these
+    imitation_min_scale: float = 0.1
+    # curriculum (paper: promote when hybrid 4x4 success > 80 %; proxy until the planner exists:
+    # the learner's own success on its training episodes)
+    start_stage: int = 1
+    promote_threshold: float = 0.8
+    promote_window: int = 300  # episodes the success rate is measured over
+    noise: float = 0.0
+
+    @property
+    def frames_per_batch(self) -> int:
+        return self.num_envs * self.steps_per_env
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "TrainConfig":
+        names = {f.name for f in fields(cls)}
+        unknown = set(d) - names
+        if unknown:
+            raise ValueError(f"unknown training settings {sorted(unknown)}")
+        return cls(**d)
+
+
+TRAIN_PRESETS: dict[str, TrainConfig] = {
+    # Paper Sec. V / VI-B: RMSProp, lr 5e-5, c1 0.5, c2 0.01, c3 1.0, gamma 0.995, M = 1500.
+    "paper": TrainConfig(),
+    # What trains on this project's 2-core CPU machines: the paper's network and loss, Adam at a
+    # higher learning rate, two epochs per batch, two collector processes, and a DAgger warm
+    # start on the scripted retriever before PPO (see docs/training.md).
+    "cpu": TrainConfig(
+        preset="cpu",
+        optimizer="adam",
+        lr=3e-4,
+        epochs=2,
+        collector="multi",
+        num_envs=32,
+        imitation_iters=400,
+        heatmap_fraction=0.25,
+        batch_norm_frames=400,
+    ),
+    # A seconds-long configuration for tests and smoke runs.
+    "tiny": TrainConfig(preset="tiny", num_envs=4, steps_per_env=8, epochs=1, minibatch_envs=2, promote_window=8),
+}
+
+
+def get_train_config(preset: str = "paper", **overrides) -> TrainConfig:
+    if preset not in TRAIN_PRESETS:
+        raise ValueError(f"unknown training preset {preset!r}; available: {sorted(TRAIN_PRESETS)}")
+    return replace(TRAIN_PRESETS[preset], **overrides)

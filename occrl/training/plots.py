@@ -1,0 +1,65 @@
+"""Learning-curve plots from a run's ``metrics.jsonl``."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["plot_learning_curves", "read_metrics"]
+
+
+def read_metrics(path: str | Path) -> list[dict]:
+    with open(path) as f:
+        return [json.loads(line) for line in f if line.strip()]
+
+
+def _smooth(y: np.ndarray, k: int = 10) -> np.ndarray:
+    y = np.asarray(y, float)
+    out = np.empty_like(y)
+    for i in range(len(y)):
+        w = y[max(0, i - k + 1) : i + 1]
+        w = w[~np.isnan(w)]
+        out[i] = w.mean() if len(w) else np.nan
+    return out
+
+
+def plot_learning_curves(metrics_path: str | Path, out_path: str | Path, title: str | None = None) -> Path:
+    """Success rate, return, heat-map loss and stage against frames, one PNG."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = read_metrics(metrics_path)
+    frames = np.array([r["frames"] for r in rows]) / 1e6
+    fig, axes = plt.subplots(2, 2, figsize=(10, 6.5), sharex=True)
+    panels = [
+        ("success_rate", "training-episode success rate"),
+        ("episode_return", "episode return"),
+        ("loss_heatmap", "heat-map loss (c3 x BCE)"),
+        ("stage", "curriculum stage"),
+    ]
+    for ax, (key, label) in zip(axes.ravel(), panels):
+        y = np.array([r.get(key, np.nan) for r in rows], float)
+        if key == "stage":
+            ax.step(frames, y, where="post")
+            ax.set_yticks([1, 2, 3])
+        else:
+            ax.plot(frames, y, alpha=0.25, color="C0")
+            ax.plot(frames, _smooth(y), color="C0")
+        imit = np.array([r.get("phase") == "imitation" for r in rows])
+        if imit.any():
+            ax.axvspan(frames[imit].min(), frames[imit].max(), color="orange", alpha=0.1, label="imitation warm start")
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
+    for ax in axes[-1]:
+        ax.set_xlabel("frames (millions)")
+    axes[0, 0].legend(loc="lower right", fontsize=8) if any(r.get("phase") == "imitation" for r in rows) else None
+    fig.suptitle(title or f"training: {Path(metrics_path).parent.name}")
+    fig.tight_layout()
+    out_path = Path(out_path)
+    fig.savefig(out_path, dpi=100)
+    plt.close(fig)
+    return out_path

@@ -1,0 +1,342 @@
+"""Curriculum PPO (+ heat-map loss) training of OccNet with TorchRL collectors.
+
+One iteration, top to bottom:
+
+1. collect ``num_envs x steps_per_env`` frames with the current stochastic policy (every episode
+   starts afresh; the seed of iteration ``i`` is ``seed + i``, so a resumed run is exact);
+2. refresh batch-norm statistics on the batch, then compute values and GAE advantages;
+3. optimise for ``epochs`` passes over minibatches of whole sequences: PPO + c3 x heat-map BCE, or,
+   during the warm start, the expert's negative log-likelihood + value + heat-map losses;
+4. log, feed the curriculum with the finished episodes, checkpoint every few minutes.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import time
+from functools import partial
+from pathlib import Path
+
+import numpy as np
+import torch
+from tensordict import TensorDictBase
+from torchrl.collectors import Collector, MultiSyncCollector
+from torchrl.envs.utils import ExplorationType, set_exploration_type
+from torchrl.modules import set_recurrent_mode
+
+from occrl.baselines.scripted import ScriptedRetriever
+from occrl.envs import make_env
+from occrl.modules import make_occnet
+from occrl.objectives import PPOHeatmapLoss, compute_advantages, heatmap_loss, imitation_nll
+from occrl.training.checkpoint import load_checkpoint, save_checkpoint, save_weights
+from occrl.training.config import TrainConfig
+from occrl.training.curriculum import Curriculum
+from occrl.training.dagger import ExpertMixPolicy, label_with_expert
+
+__all__ = ["Trainer", "episode_stats"]
+
+logger = logging.getLogger(__name__)
+
+CHECKPOINT = "checkpoint.pt"
+WEIGHTS = "weights.pt"
+METRICS = "metrics.jsonl"
+
+
+def _env_factory(stage: int, noise: float, num_envs: int, seed: int, primer_net):
+    env = make_env(batch_size=num_envs, stage=stage, noise=noise, seed=seed)
+    return env.append_transform(primer_net.make_primer())
+
+
+def episode_stats(data: TensorDictBase) -> dict:
+    """Finished episodes of a [B, T] batch: success flags, returns and lengths."""
+    done = data.get(("next", "done")).squeeze(-1).numpy()
+    success = data.get(("next", "success")).squeeze(-1).numpy()
+    reward = data.get(("next", "reward")).squeeze(-1).numpy()
+    succ, rets, lens = [], [], []
+    for b in range(done.shape[0]):
+        start = 0
+        for t in np.flatnonzero(done[b]):
+            succ.append(bool(success[b, t]))
+            rets.append(float(reward[b, start : t + 1].sum()))
+            lens.append(int(t + 1 - start))
+            start = t + 1
+    return {"success": succ, "returns": rets, "lengths": lens}
+
+
+class Trainer:
+    """Train an OccNet. ``Trainer(config, run_dir, seed).train(iterations)``; resumes from
+    ``run_dir/checkpoint.pt`` when it exists.
+
+    Examples:
+        >>> import tempfile
+        >>> from occrl.training import Trainer, get_train_config
+        >>> trainer = Trainer(get_train_config("tiny"), tempfile.mkdtemp(), seed=0, progress=False)
+        >>> trainer.train(iterations=1)["iteration"]
+        1
+    """
+
+    def __init__(self, config: TrainConfig, run_dir: str | Path, seed: int = 0, progress: bool = True,
+                 checkpoint_every_s: float = 300.0, tensorboard: bool = True) -> None:
+        self.config = config
+        self.run_dir = Path(run_dir)
+        self.run_dir.mkdir(parents=True, exist_ok=True)
+        self.seed = int(seed)
+        self.progress = progress
+        self.checkpoint_every_s = checkpoint_every_s
+        torch.manual_seed(self.seed)
+        self.net = make_occnet(config.net_preset, heatmap=config.heatmap).eval()
+        self.loss = PPOHeatmapLoss(
+            self.net,
+            clip_epsilon=config.clip_epsilon,
+            entropy_coeff=config.entropy_coeff,
+            critic_coeff=config.critic_coeff,
+            heatmap_coeff=config.heatmap_coeff,
+            gamma=config.gamma,
+            heatmap_fraction=config.heatmap_fraction,
+        )
+        params = list(self.net.parameters())
+        if config.optimizer == "rmsprop":
+            self.optimizer = torch.optim.RMSprop(params, lr=config.lr)
+        elif config.optimizer == "adam":
+            self.optimizer = torch.optim.Adam(params, lr=config.lr)
+        else:
+            raise ValueError(f"optimizer must be 'rmsprop' or 'adam', got {config.optimizer!r}")
+        self.curriculum = Curriculum(config.start_stage, config.promote_threshold, config.promote_window)
+        self.iteration = 0
+        self.frames = 0
+        self.train_seconds = 0.0
+        self.expert = ScriptedRetriever()
+        ckpt = self.run_dir / CHECKPOINT
+        if ckpt.exists():
+            obj = load_checkpoint(ckpt, self.net, self.optimizer)
+            if obj["train_config"] != config.to_dict():
+                raise ValueError(f"{ckpt} was written with other training settings; use another run folder")
+            st = obj["state"]
+            if st["seed"] != self.seed:
+                raise ValueError(f"{ckpt} was written with seed {st['seed']}, not {self.seed}")
+            self.iteration, self.frames, self.train_seconds = st["iteration"], st["frames"], st["train_seconds"]
+            self.curriculum.load_state_dict(st["curriculum"])
+            logger.info("resumed %s at iteration %d (stage %d, %d frames)", ckpt, self.iteration, self.curriculum.stage, self.frames)
+        self._collector = None
+        self._collector_stage = None
+        self._loggers = self._make_loggers(tensorboard)
+
+    # ------------------------------------------------------------------ plumbing
+    def _make_loggers(self, tensorboard: bool) -> list:
+        from torchrl.record.loggers import CSVLogger
+
+        loggers = [CSVLogger(exp_name="logs", log_dir=str(self.run_dir))]
+        if tensorboard:
+            try:
+                from torchrl.record.loggers import TensorboardLogger
+
+                loggers.append(TensorboardLogger(exp_name="tensorboard", log_dir=str(self.run_dir)))
+            except ImportError:  # pragma: no cover - tensorboard is a dependency
+                logger.warning("tensorboard is not installed; logging to CSV only")
+        return loggers
+
+    def _beta(self) -> float:
+        c = self.config
+        if self.iteration >= c.imitation_iters or c.imitation_beta_iters <= 0:
+            return 0.0
+        return max(0.0, 1.0 - self.iteration / c.imitation_beta_iters)
+
+    def _phase(self) -> str:
+        return "imitation" if self.iteration < self.config.imitation_iters else "ppo"
+
+    def _get_collector(self):
+        c = self.config
+        stage = self.curriculum.stage
+        if self._collector is not None and self._collector_stage == stage:
+            return self._collector
+        self.close()
+        policy = ExpertMixPolicy(self.net.policy, self.expert, 0.0) if c.imitation_iters > 0 else self.net.policy
+        self._policy = policy
+        if c.collector == "single":
+            self._collector = Collector(
+                partial(_env_factory, stage, c.noise, c.num_envs, self.seed, self.net),
+                policy,
+                frames_per_batch=c.frames_per_batch,
+                total_frames=-1,
+                reset_at_each_iter=True,
+                exploration_type=ExplorationType.RANDOM,
+            )
+        elif c.collector == "multi":
+            per = c.num_envs // c.workers
+            if per * c.workers != c.num_envs:
+                raise ValueError(f"num_envs ({c.num_envs}) must be a multiple of workers ({c.workers})")
+            self._collector = MultiSyncCollector(
+                [partial(_env_factory, stage, c.noise, per, self.seed + k, self.net) for k in range(c.workers)],
+                policy,
+                frames_per_batch=c.frames_per_batch,
+                total_frames=-1,
+                reset_at_each_iter=True,
+                exploration_type=ExplorationType.RANDOM,
+            )
+        else:
+            raise ValueError(f"collector must be 'single' or 'multi', got {c.collector!r}")
+        self._collector_stage = stage
+        self._iterator = iter(self._collector)
+        return self._collector
+
+    def close(self) -> None:
+        if self._collector is not None:
+            self._collector.shutdown()
+            self._collector = None
+
+    # ------------------------------------------------------------------ one iteration
+    def _collect(self) -> TensorDictBase:
+        collector = self._get_collector()
+        it_seed = self.seed * 1_000_003 + self.iteration
+        torch.manual_seed(it_seed)
+        beta = self._beta()
+        if isinstance(self._policy, ExpertMixPolicy):
+            self._policy.beta = beta
+        self.expert.reset()
+        collector.set_seed(it_seed)
+        collector.update_policy_weights_()
+        data = next(self._iterator)
+        if data.batch_dims == 3:  # MultiSyncCollector: [workers, envs, time]
+            data = data.reshape(-1, data.shape[-1])
+        return data
+
+    def _refresh_batch_norm(self, data: TensorDictBase) -> None:
+        """Update the encoder's batch-norm running statistics on this batch (no gradients); the
+        net otherwise stays in eval mode so collection and update see the same function."""
+        flat = data.reshape(-1)
+        n = min(self.config.batch_norm_frames, flat.shape[0])
+        frames = flat[torch.randperm(flat.shape[0])[:n]]
+        self.net.encoder.train()
+        with torch.no_grad():
+            self.net.encoder(frames.select("pixels").copy())
+        self.net.encoder.eval()
+
+    def _update(self, data: TensorDictBase, phase: str) -> dict:
+        c = self.config
+        B = data.shape[0]
+        sums: dict[str, float] = {}
+        count = 0
+        for _ in range(c.epochs):
+            order = torch.randperm(B)
+            for start in range(0, B, c.minibatch_envs):
+                mb = data[order[start : start + c.minibatch_envs]]
+                if phase == "ppo":
+                    out = self.loss(mb)
+                    terms = {k: v for k, v in out.items() if k.startswith("loss_")}
+                else:
+                    terms = self._imitation_terms(mb)
+                total = sum(terms.values())
+                self.optimizer.zero_grad()
+                total.backward()
+                torch.nn.utils.clip_grad_norm_(self.net.parameters(), c.max_grad_norm)
+                self.optimizer.step()
+                for k, v in terms.items():
+                    sums[k] = sums.get(k, 0.0) + float(v.detach())
+                count += 1
+        return {k: v / max(count, 1) for k, v in sums.items()}
+
+    def _imitation_terms(self, mb: TensorDictBase) -> dict:
+        c = self.config
+        td = mb.copy()
+        with set_recurrent_mode(True):
+            td = self.net.trunk(td)
+        terms = {"loss_imitation": imitation_nll(self.net, td, c.imitation_min_scale)}
+        value = self.net.critic(td).get("state_value")
+        terms["loss_critic"] = c.critic_coeff * (value - td.get("value_target")).pow(2).mean()
+        if self.net.heatmap_head is not None and c.heatmap_coeff > 0:
+            terms["loss_heatmap"] = c.heatmap_coeff * heatmap_loss(self.net.heatmap_head, td, c.heatmap_fraction)
+        return terms
+
+    def train(self, iterations: int | None = None, max_seconds: float | None = None) -> dict:
+        """Run until ``iterations`` iterations in total (counting resumed ones) or ``max_seconds``."""
+        c = self.config
+        torch.set_num_threads(max(1, torch.get_num_threads()))
+        target = iterations if iterations is not None else math.inf
+        start_wall = time.time()
+        last_ckpt = time.time()
+        bar = None
+        if self.progress:
+            from tqdm import tqdm
+
+            bar = tqdm(total=None if target == math.inf else target, initial=self.iteration, unit="it", desc="training")
+        summary: dict = {}
+        try:
+            while self.iteration < target and (max_seconds is None or time.time() - start_wall < max_seconds):
+                t0 = time.time()
+                phase = self._phase()
+                beta = self._beta()
+                data = self._collect()
+                t_collect = time.time() - t0
+                if phase == "imitation":
+                    label_with_expert(data, self.expert)
+                self._refresh_batch_norm(data)
+                compute_advantages(self.net, data, c.gamma, c.gae_lambda)
+                losses = self._update(data, phase)
+                stats = episode_stats(data)
+                promoted = False
+                if beta == 0.0:
+                    promoted = self.curriculum.record(stats["success"])
+                self.iteration += 1
+                self.frames += data.numel()
+                dt = time.time() - t0
+                self.train_seconds += dt
+                summary = {
+                    "iteration": self.iteration,
+                    "frames": self.frames,
+                    "stage": self.curriculum.stage,
+                    "phase": phase,
+                    "beta": beta,
+                    "episodes": len(stats["success"]),
+                    "success_rate": float(np.mean(stats["success"])) if stats["success"] else float("nan"),
+                    "window_success_rate": self.curriculum.success_rate,
+                    "episode_return": float(np.mean(stats["returns"])) if stats["returns"] else float("nan"),
+                    "episode_length": float(np.mean(stats["lengths"])) if stats["lengths"] else float("nan"),
+                    "fps": data.numel() / dt,
+                    "collect_fps": data.numel() / max(t_collect, 1e-9),
+                    "train_hours": self.train_seconds / 3600,
+                    **losses,
+                }
+                self._log(summary)
+                if promoted:
+                    logger.info("promoted to stage %d at iteration %d", self.curriculum.stage, self.iteration)
+                if bar is not None:
+                    bar.update(1)
+                    bar.set_postfix(stage=summary["stage"], phase=phase, success=f"{summary['success_rate']:.2f}", fps=f"{summary['fps']:.0f}")
+                if time.time() - last_ckpt >= self.checkpoint_every_s:
+                    self.save()
+                    last_ckpt = time.time()
+        finally:
+            if bar is not None:
+                bar.close()
+            self.save()
+        return summary
+
+    def _log(self, summary: dict) -> None:
+        with open(self.run_dir / METRICS, "a") as f:
+            f.write(json.dumps(summary) + "\n")
+        for lg in self._loggers:
+            for k, v in summary.items():
+                if isinstance(v, (int, float)) and not (isinstance(v, float) and math.isnan(v)):
+                    lg.log_scalar(k, float(v), step=self.frames)
+
+    def state(self) -> dict:
+        return {
+            "iteration": self.iteration,
+            "frames": self.frames,
+            "train_seconds": self.train_seconds,
+            "seed": self.seed,
+            "curriculum": self.curriculum.state_dict(),
+        }
+
+    def save(self) -> None:
+        """Write the resumable checkpoint, the weights file and the learning-curve plot."""
+        save_checkpoint(self.run_dir / CHECKPOINT, self.net, self.optimizer, self.config.to_dict(), self.state())
+        save_weights(self.run_dir / WEIGHTS, self.net, {"train_preset": self.config.preset, **self.state()})
+        try:
+            from occrl.training.plots import plot_learning_curves
+
+            plot_learning_curves(self.run_dir / METRICS, self.run_dir / "learning_curves.png")
+        except Exception as err:  # a plot must never stop training
+            logger.warning("could not plot learning curves: %s", err)
