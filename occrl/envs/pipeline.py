@@ -32,7 +32,7 @@ def make_env(
     batch_size: int = 1,
     stage: int = 1,
     noise: float = 0.0,
-    seed: int | None = None,
+    seed: int | Sequence[int] | None = None,
     scenes: Sequence[Scene] | None = None,
     num_objects: int | None = None,
     max_steps: int = C.MAX_EPISODE_STEPS,

@@ -74,7 +74,8 @@ class ShelfEnv(EnvBase):
         batch_size: number of independent worlds.
         stage: curriculum stage for sampled scenes.
         noise: execution noise level on density, friction and shapes (0 to 0.25).
-        seed: seeds scene sampling and noise; world ``i`` uses the ``i``-th spawned stream.
+        seed: seeds scene sampling and noise; world ``i`` uses the ``i``-th spawned stream. A
+            list of ints (one per world) seeds each world's stream directly (fixed task seeds).
         scenes: reset to these scenes in turn instead of sampling.
         num_objects: fixed object count for sampled scenes (overrides the stage's range).
         max_steps: truncation horizon.
@@ -94,7 +95,7 @@ class ShelfEnv(EnvBase):
         batch_size: int | Sequence[int] = 1,
         stage: int = 1,
         noise: float = 0.0,
-        seed: int | None = None,
+        seed: int | Sequence[int] | None = None,
         scenes: Sequence[Scene] | None = None,
         num_objects: int | None = None,
         max_steps: int = C.MAX_EPISODE_STEPS,
@@ -124,7 +125,13 @@ class ShelfEnv(EnvBase):
         self.worlds: list[ShelfWorld | None] = [None] * self.num_worlds
         self._steps = np.zeros(self.num_worlds, dtype=np.int64)
         self._make_specs()
-        self._set_seed(seed)
+        if isinstance(seed, (list, tuple)):
+            if len(seed) != self.num_worlds:
+                raise ValueError(f"a list of seeds needs one per world ({self.num_worlds}), got {len(seed)}")
+            self._rngs = [np.random.default_rng(int(s)) for s in seed]
+            self._seed = list(seed)
+        else:
+            self._set_seed(seed)
 
     # ------------------------------------------------------------------ specs
     def _make_specs(self) -> None:

@@ -1,0 +1,106 @@
+"""Run a policy on fixed tasks and measure it (success, actions, time), batched.
+
+Tasks are scenes built from *task seeds*: task seed ``s`` is ``Scene.sample(stage, seed=s)`` and
+its execution noise is seeded by ``s`` too, so every method sees the same shelves. Held-out
+evaluation seeds start at :data:`EVAL_SEED_BASE`, far from anything training samples.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import asdict, dataclass
+from typing import Callable, Sequence
+
+import numpy as np
+import torch
+from torchrl.envs.utils import ExplorationType, set_exploration_type
+
+from occrl.envs import Scene, make_env
+from occrl.envs import world_constants as C
+
+__all__ = ["EpisodeResult", "run_episodes", "summarize", "task_scenes", "wilson_interval", "EVAL_SEED_BASE"]
+
+EVAL_SEED_BASE = 10_000_000
+TIME_LIMIT_S = 120.0
+
+
+@dataclass
+class EpisodeResult:
+    seed: int
+    objects: int
+    success: bool
+    dropped: bool
+    actions: int
+    seconds: float
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def task_scenes(stage: int, seeds: Sequence[int], num_objects: int | None = None) -> list[Scene]:
+    return [Scene.sample(stage, seed=int(s), num_objects=num_objects) for s in seeds]
+
+
+def wilson_interval(successes: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    """95 % Wilson score interval of a success rate."""
+    if n == 0:
+        return (0.0, 1.0)
+    p = successes / n
+    den = 1 + z * z / n
+    centre = (p + z * z / (2 * n)) / den
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
+    return (max(0.0, centre - half), min(1.0, centre + half))
+
+
+def run_episodes(
+    policy: Callable,
+    scenes: Sequence[Scene],
+    seeds: Sequence[int],
+    noise: float = 0.0,
+    batch_size: int = 16,
+    primers: Sequence = (),
+    exploration: ExplorationType = ExplorationType.RANDOM,
+    heatmap_target: bool = False,
+) -> list[EpisodeResult]:
+    """Run ``policy`` once on each scene (batches of ``batch_size`` worlds stepped together).
+
+    Success requires retrieval in under 50 actions and under 2 minutes, with nothing dropped.
+    Per-task time is the batch's wall time divided among its tasks.
+    """
+    results: list[EpisodeResult] = []
+    for start in range(0, len(scenes), batch_size):
+        chunk = list(scenes[start : start + batch_size])
+        chunk_seeds = list(seeds[start : start + batch_size])
+        # each world's execution noise follows its own task seed
+        env = make_env(batch_size=len(chunk), scenes=chunk, noise=noise, seed=[int(s) for s in chunk_seeds], heatmap_target=heatmap_target)
+        for p in primers:
+            env.append_transform(p.clone() if hasattr(p, "clone") else p)
+        t = time.time()
+        with torch.no_grad(), set_exploration_type(exploration):
+            td = env.rollout(C.MAX_EPISODE_STEPS, policy, break_when_any_done=False)
+        per_task = (time.time() - t) / len(chunk)
+        done = td.get(("next", "done")).squeeze(-1).numpy()
+        success = td.get(("next", "success")).squeeze(-1).numpy()
+        dropped = td.get(("next", "dropped")).squeeze(-1).numpy()
+        for b, scene in enumerate(chunk):
+            ends = np.flatnonzero(done[b])
+            end = int(ends[0]) if len(ends) else done.shape[1] - 1
+            ok = bool(success[b, end]) and end + 1 < C.MAX_EPISODE_STEPS + 1 and per_task < TIME_LIMIT_S
+            results.append(EpisodeResult(int(chunk_seeds[b]), len(scene), ok, bool(dropped[b, end]), end + 1, per_task))
+    return results
+
+
+def summarize(results: Sequence[EpisodeResult]) -> dict:
+    n = len(results)
+    k = sum(r.success for r in results)
+    lo, hi = wilson_interval(k, n)
+    return {
+        "tasks": n,
+        "successes": k,
+        "success_rate": k / n if n else float("nan"),
+        "success_ci95": [lo, hi],
+        "dropped": sum(r.dropped for r in results),
+        "mean_actions": float(np.mean([r.actions for r in results])) if n else float("nan"),
+        "mean_seconds": float(np.mean([r.seconds for r in results])) if n else float("nan"),
+    }

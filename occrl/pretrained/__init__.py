@@ -1,0 +1,49 @@
+"""Pretrained networks shipped inside the package (no download at run time).
+
+``occrl.load_pretrained("occnet")`` is the full three-headed net (used by the hybrid planner and
+the Stochastic-gen baseline); ``"occnet-noheatmap"`` the net without heat-map head (Greedy and
+Stochastic baselines). ``MODEL_CARDS`` says how each was trained; the README has the figures.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from occrl.training.checkpoint import load_weights
+
+__all__ = ["load_pretrained", "available", "model_card"]
+
+_DIR = Path(__file__).resolve().parent
+_FILES = {"occnet": "occnet.pt", "occnet-noheatmap": "occnet-noheatmap.pt"}
+
+
+def available() -> list[str]:
+    """Names of the shipped networks present in this installation."""
+    return sorted(name for name, f in _FILES.items() if (_DIR / f).is_file())
+
+
+def model_card(name: str) -> dict:
+    """Training facts of a shipped network (preset, stage reached, frames, CPU-hours, ...)."""
+    path = _DIR / "model_cards.json"
+    cards = json.loads(path.read_text()) if path.is_file() else {}
+    return cards.get(name, {})
+
+
+def load_pretrained(name: str = "occnet"):
+    """Load a shipped network in eval mode.
+
+    Raises:
+        ValueError: for an unknown name (lists the known ones).
+        FileNotFoundError: when the package was installed without that weights file.
+
+    Examples:
+        >>> import occrl
+        >>> net = occrl.load_pretrained("occnet")  # doctest: +SKIP
+    """
+    if name not in _FILES:
+        raise ValueError(f"unknown pretrained network {name!r}; known: {sorted(_FILES)}")
+    path = _DIR / _FILES[name]
+    if not path.is_file():
+        raise FileNotFoundError(f"{path} is missing: this installation has no weights for {name!r} (shipped: {available()})")
+    return load_weights(path)

@@ -1,0 +1,71 @@
+import pytest
+import torch
+from torchrl.envs.utils import ExplorationType, set_exploration_type
+
+from occrl.envs import make_env
+from occrl.modules import make_occnet
+from occrl.objectives import PPOHeatmapLoss, compute_advantages, heatmap_bce
+
+
+@pytest.fixture(scope="module")
+def batch():
+    torch.manual_seed(0)
+    net = make_occnet("paper").eval()
+    env = make_env(batch_size=3, stage=2, seed=1).append_transform(net.make_primer())
+    with torch.no_grad(), set_exploration_type(ExplorationType.RANDOM):
+        data = env.rollout(6, net.policy, break_when_any_done=False)
+    return net, compute_advantages(net, data)
+
+
+def test_loss_terms_and_their_coefficients(batch):
+    net, data = batch
+    full = PPOHeatmapLoss(net)(data.copy())
+    assert set(k for k in full.keys() if k.startswith("loss_")) == {"loss_objective", "loss_critic", "loss_entropy", "loss_heatmap"}
+    double = PPOHeatmapLoss(net, heatmap_coeff=2.0, critic_coeff=1.0, entropy_coeff=0.02)(data.copy())
+    for key in ("loss_heatmap", "loss_critic", "loss_entropy"):
+        assert double[key].item() == pytest.approx(2 * full[key].item(), rel=1e-5)
+    # the heat-map term is c3 x the pixel-wise BCE against the privileged label
+    with torch.no_grad():
+        td = data.copy()
+        from torchrl.modules import set_recurrent_mode
+
+        with set_recurrent_mode(True):
+            td = net.trunk(td)
+        bce = heatmap_bce(net.heatmap_head(td)["heatmap_logits"], td["privileged", "heatmap_target"])
+    assert full["loss_heatmap"].item() == pytest.approx(bce.item(), rel=1e-5)
+    # at the collecting policy the ratio is 1: the clipped objective is minus the mean normalised advantage (0)
+    assert abs(full["loss_objective"].item()) < 1e-4
+
+
+def test_gradients_flow_through_time_in_the_lstm(batch):
+    net, data = batch
+    loss = PPOHeatmapLoss(net)
+    net.zero_grad()
+    # a loss on the last step only: its gradient reaches the first step's input through the recurrence
+    td = data.copy()
+    td["pixels"] = td["pixels"].clone().requires_grad_(True)
+    from torchrl.modules import set_recurrent_mode
+
+    with set_recurrent_mode(True):
+        out = net.trunk(td)
+    out["belief"][:, -1].sum().backward()
+    assert td["pixels"].grad[:, 0].abs().sum() > 0  # first step influences the last belief
+    assert net.lstm.lstm.weight_hh_l0.grad.abs().sum() > 0
+    net.zero_grad()
+    losses = loss(data.copy())
+    sum(v for k, v in losses.items() if k.startswith("loss_")).backward()
+    for name, p in net.named_parameters():
+        assert p.grad is not None and torch.isfinite(p.grad).all(), name
+
+
+def test_advantages_use_exact_next_values(batch):
+    net, data = batch
+    assert data["advantage"].shape == data["state_value"].shape == (3, 6, 1)
+    # where no episode ended, next value at t equals the value at t + 1
+    done = data["next", "done"].squeeze(-1)
+    value = data["state_value"]
+    target = data["value_target"]
+    r = data["next", "reward"]
+    adv = data["advantage"]
+    assert torch.allclose(target, adv + value, atol=1e-5)
+    assert not done[:, :-1].all()

@@ -1,0 +1,84 @@
+import json
+
+import pytest
+import torch
+
+from occrl.training import CheckpointError, Curriculum, Trainer, get_train_config, load_checkpoint, load_weights
+from occrl.modules import make_occnet
+from occrl.training.checkpoint import save_weights
+
+
+def _weights(net):
+    return {k: v.clone() for k, v in net.state_dict().items()}
+
+
+@pytest.mark.parametrize("imitation", [0, 4])
+def test_resume_is_exact(tmp_path, imitation):
+    cfg = get_train_config("tiny", imitation_iters=imitation, imitation_beta_iters=2 if imitation else 0)
+    straight = Trainer(cfg, tmp_path / "a", seed=5, progress=False, tensorboard=False)
+    straight.train(iterations=4)
+    straight.close()
+    first = Trainer(cfg, tmp_path / "b", seed=5, progress=False, tensorboard=False)
+    first.train(iterations=2)
+    first.close()
+    resumed = Trainer(cfg, tmp_path / "b", seed=5, progress=False, tensorboard=False)
+    assert resumed.iteration == 2
+    resumed.train(iterations=4)
+    resumed.close()
+    a, b = _weights(straight.net), _weights(resumed.net)
+    assert all(torch.equal(a[k], b[k]) for k in a)
+    assert resumed.frames == straight.frames
+
+
+def test_run_folder_has_logs_curves_and_small_files(tmp_path):
+    tr = Trainer(get_train_config("tiny"), tmp_path, seed=0, progress=False, tensorboard=True)
+    tr.train(iterations=2)
+    tr.close()
+    rows = [json.loads(l) for l in (tmp_path / "metrics.jsonl").read_text().splitlines()]
+    assert [r["iteration"] for r in rows] == [1, 2] and all("loss_heatmap" in r for r in rows)
+    assert (tmp_path / "learning_curves.png").stat().st_size > 1000
+    assert any((tmp_path / "tensorboard").rglob("events.*"))
+    assert any((tmp_path / "logs").rglob("*.csv"))
+    assert (tmp_path / "weights.pt").stat().st_size < 4_000_000
+
+
+def test_bad_checkpoints_give_clear_errors(tmp_path):
+    garbage = tmp_path / "garbage.pt"
+    garbage.write_bytes(b"not a checkpoint at all")
+    with pytest.raises(CheckpointError, match="not a readable checkpoint"):
+        load_weights(garbage)
+    with pytest.raises(CheckpointError, match="no checkpoint"):
+        load_weights(tmp_path / "missing.pt")
+    other = tmp_path / "other.pt"
+    save_weights(other, make_occnet("paper", heatmap=False))
+    with pytest.raises(CheckpointError, match="another architecture"):
+        load_weights(other, make_occnet("paper"))
+    torch.save({"format": "something-else"}, tmp_path / "foreign.pt")
+    with pytest.raises(CheckpointError, match="not an occrl checkpoint"):
+        load_weights(tmp_path / "foreign.pt")
+    with pytest.raises(CheckpointError, match="holds only weights"):
+        load_checkpoint(other)
+    net = load_weights(other)  # a weights file builds its own net
+    assert net.heatmap_head is None
+
+
+def test_resume_refuses_other_settings(tmp_path):
+    tr = Trainer(get_train_config("tiny"), tmp_path, seed=0, progress=False, tensorboard=False)
+    tr.train(iterations=1)
+    tr.close()
+    with pytest.raises(ValueError, match="other training settings"):
+        Trainer(get_train_config("tiny", lr=1e-3), tmp_path, seed=0, progress=False, tensorboard=False)
+    with pytest.raises(ValueError, match="seed"):
+        Trainer(get_train_config("tiny"), tmp_path, seed=1, progress=False, tensorboard=False)
+
+
+def test_curriculum_promotes_only_above_threshold_over_a_full_window():
+    c = Curriculum(stage=1, threshold=0.8, window=10)
+    assert not c.record([True] * 8)  # window not full yet
+    assert not c.record([False, False]) and c.stage == 1  # 8 / 10 is not above 0.8
+    assert c.record([True] * 9) and c.stage == 2  # 9 / 10 over the last 10 episodes
+    assert len(c.history) == 0  # a new stage starts a new window
+    c2 = Curriculum(stage=1, threshold=0.8, window=10)
+    assert c2.record([True] * 10) and c2.stage == 2
+    c3 = Curriculum(stage=3, threshold=0.8, window=2)
+    assert not c3.record([True, True]) and c3.stage == 3
