@@ -1,4 +1,4 @@
-"""Command line: ``occrl demo | train | bench``.
+"""Command line: ``occrl demo | train | eval | bench``.
 
 ``occrl demo`` retrieves targets from a few random shelves and writes a summary and a GIF.
 Until the hybrid planner is available it shows the privileged scripted retriever.
@@ -74,6 +74,46 @@ def _train(args: argparse.Namespace) -> int:
     return 0
 
 
+def _eval(args: argparse.Namespace) -> int:
+    import numpy as np
+    from tqdm import tqdm
+
+    from occrl.eval.methods import make_method
+    from occrl.eval.runner import EVAL_SEED_BASE, run_episodes, summarize, task_scenes
+
+    method = make_method(args.method, args.weights)
+    seeds = list(range(args.seed, args.seed + args.tasks))
+    scenes = task_scenes(args.stage, seeds, args.objects)
+    results = []
+    bar = tqdm(total=len(scenes), desc=f"{args.method} stage {args.stage}", unit="task", disable=args.no_progress)
+    for start in range(0, len(scenes), args.batch):
+        chunk = slice(start, start + args.batch)
+        results += run_episodes(method.policy, scenes[chunk], seeds[chunk], args.noise, args.batch, method.primers, method.exploration)
+        bar.update(len(scenes[chunk]))
+    bar.close()
+    summary = {
+        "method": args.method,
+        "network": method.network,
+        "stage": args.stage,
+        "objects": args.objects,
+        "noise": args.noise,
+        "first_seed": args.seed,
+        **summarize(results),
+        "episodes": [r.to_dict() for r in results],
+    }
+    lo, hi = summary["success_ci95"]
+    print(
+        f"{args.method}: stage {args.stage}, noise {args.noise}, {summary['tasks']} tasks: success {summary['success_rate']:.1%} "
+        f"(95% CI {lo:.1%}-{hi:.1%}), dropped {summary['dropped']}, mean actions {summary['mean_actions']:.1f}, "
+        f"mean time {summary['mean_seconds']:.2f} s"
+    )
+    if args.out:
+        Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.out).write_text(json.dumps(summary, indent=2))
+        print(f"wrote {args.out}")
+    return 0
+
+
 def _bench(args: argparse.Namespace) -> int:
     import runpy
 
@@ -114,6 +154,19 @@ def main(argv: list[str] | None = None) -> int:
     t.add_argument("--checkpoint-every", type=float, default=300.0, help="seconds between checkpoints")
     t.add_argument("--no-progress", action="store_true")
     t.set_defaults(func=_train)
+
+    e = sub.add_parser("eval", help="run a method on fixed task seeds and report success, actions, time")
+    e.add_argument("--method", required=True, help="scripted, greedy, stochastic, stochastic-gen")
+    e.add_argument("--stage", type=int, default=1, choices=[1, 2, 3])
+    e.add_argument("--objects", type=int, default=None, help="fixed number of objects (clutter sweep)")
+    e.add_argument("--noise", type=float, default=0.0)
+    e.add_argument("--tasks", type=int, default=200)
+    e.add_argument("--seed", type=int, default=10_000_000, help="first task seed (held-out range by default)")
+    e.add_argument("--batch", type=int, default=16, help="worlds stepped together")
+    e.add_argument("--weights", default=None, help="network weights file instead of the shipped one")
+    e.add_argument("--out", default=None, help="write the results as JSON")
+    e.add_argument("--no-progress", action="store_true")
+    e.set_defaults(func=_eval)
 
     b = sub.add_parser("bench", help="run a speed benchmark from benchmarks/")
     b.add_argument("name", help="e.g. env_throughput")

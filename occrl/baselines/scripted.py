@@ -70,7 +70,7 @@ class ScriptedRetriever(TensorDictModuleBase):
     in_keys = ["gripper_pose", "gripper_opening", "gripper_closed", "privileged"]
     out_keys = ["action"]
 
-    def __init__(self, lateral_tolerance: float = 0.005) -> None:
+    def __init__(self, lateral_tolerance: float = 0.002) -> None:
         super().__init__()
         self.lateral_tolerance = lateral_tolerance
         self._plans: dict[bytes, tuple[float, np.ndarray]] = {}  # grasp plans by target pose
@@ -132,8 +132,9 @@ class ScriptedRetriever(TensorDictModuleBase):
             approach, grasp = self._plans[key]
             e = _rot(np.array([x, y]) - grasp, -approach)
             dth = _wrap(approach - th)
-        if abs(e[0]) < self.lateral_tolerance and abs(dth) < math.radians(8):
-            step_g = np.array([-e[0], -e[1]])  # lined up: advance onto the target
+        if abs(e[0]) < self.lateral_tolerance and abs(dth) < math.radians(3):
+            # lined up: advance onto the target, slowly over the last centimetres
+            step_g = np.array([-e[0], -e[1] if -e[1] > 0.06 else min(-e[1], 0.025)])
         elif abs(dth) > math.radians(8) and y + math.cos(th) * C.FINGER_LENGTH > 0.0:
             return np.array([-1.0, 0.0, 0.0, -1.0])  # turning inside the shelf sweeps clutter: back out first
         else:
@@ -155,15 +156,15 @@ def plan_grasp(
 
     Candidates (angle, lateral offset) are tried from ``prefer_angle`` (the gripper's current
     heading, so a re-plan does not swing the arm) and centred outwards, skipping angles within 10
-    degrees of the ``exclude``d ones (approaches that already failed). The first with a wall-free
-    way in and no clutter in the finger corridor wins; failing that, the first with a wall-free
-    way in; failing that, the first that fits. The corridor test uses each clutter object's
-    bounding box in the approach frame (conservative).
+    degrees of the ``exclude``d ones (approaches that already failed). Preference: a wall-free way
+    in with no clutter in the way of the fingers; then one with no clutter between the fingers
+    (clutter ahead of a finger gets pushed aside); then any wall-free way in; then anything that
+    fits. Clutter tests use each object's bounding box in the approach frame (conservative).
     """
     centre = target.mean(axis=0)
     h = C.GRIPPER_STROKE / 2
     slack = h - 0.002
-    fits = wall_free = None
+    fits = wall_free = band_only = None
     for a in _APPROACH_ANGLES[np.argsort(np.abs(_APPROACH_ANGLES - prefer_angle), kind="stable")]:
         a = float(a)
         if any(abs(a - b) < math.radians(10) for b in exclude):
@@ -182,18 +183,27 @@ def plan_grasp(
         # y from where the fingertips leave the shelf to the fingertips at the grasp pose
         out = np.array([_way_out(g, a) for g in grasps])
         y_lo, y_hi = -grasp_y - out, -grasp_y + C.FINGER_LENGTH
-        corridor_free = np.ones(len(cs), bool)
+        band_free = np.ones(len(cs), bool)  # nothing between the fingers on the way in
+        lanes_free = np.ones(len(cs), bool)  # nothing in front of the fingers either
+        hw = h + C.FINGER_WIDTH
         for poly in clutter:
             p = transform_points(poly - centre, (0.0, 0.0, -a))
             px0, px1, py0, py1 = p[:, 0].min(), p[:, 0].max(), p[:, 1].min(), p[:, 1].max()
-            corridor_free &= ~((px1 > cs - h) & (px0 < cs + h) & (py1 > y_lo) & (py0 < y_hi))
+            along = (py1 > y_lo) & (py0 < y_hi)
+            band_free &= ~((px1 > cs - h) & (px0 < cs + h) & along)
+            lanes_free &= ~((px1 > cs - hw) & (px0 < cs + hw) & along)
         for k in np.flatnonzero(ok):
             if fits is None:
                 fits = (a, grasps[k])
-            if (corridor_free[k] or wall_free is None) and _path_clear(grasps[k], a):
-                if corridor_free[k]:
+            if (band_free[k] or wall_free is None) and _path_clear(grasps[k], a):
+                if lanes_free[k]:
                     return a, grasps[k]
-                wall_free = (a, grasps[k])
+                if band_free[k] and band_only is None:
+                    band_only = (a, grasps[k])
+                if wall_free is None:
+                    wall_free = (a, grasps[k])
+    if band_only is not None:
+        return band_only
     if wall_free is not None:
         return wall_free
     if fits is not None:

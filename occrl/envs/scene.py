@@ -36,6 +36,9 @@ PLACEMENT_CLEARANCE = 0.005  # gap kept between sampled objects
 # Sampled objects keep this gap to the side and back walls: a finger (12 mm) fits beside them, so
 # every object is graspable from some side (paper Sec. III-C). Explicit scenes may go closer.
 WALL_CLEARANCE = 0.018
+# Likewise clutter is sampled at least this far from the target, so that the target starts
+# graspable (a finger fits between it and its neighbours). Pushing may bring them together later.
+TARGET_CLEARANCE = 0.015
 GRASP_MARGIN = 0.01  # a sampled object leaves at least this much of the stroke free
 DEFAULT_GRIPPER_POSE = (0.0, -0.10, 0.0)
 _MAX_PLACEMENT_TRIES = 400
@@ -302,7 +305,8 @@ def _place_objects(rng: np.random.Generator, n: int, target_y: tuple[float, floa
                 float(rng.uniform(-math.pi, math.pi)),
             )
             wv = transform_points(verts, pose)
-            if all(not polygons_overlap(wv, other, PLACEMENT_CLEARANCE) for other in placed_world):
+            gaps = [TARGET_CLEARANCE if (is_target or k == 0) else PLACEMENT_CLEARANCE for k in range(len(placed_world))]
+            if all(not polygons_overlap(wv, other, gap) for other, gap in zip(placed_world, gaps)):
                 placed.append(SceneObject(type_id=i + 1, vertices=verts, pose=pose, is_target=is_target))
                 placed_world.append(wv)
                 break
