@@ -43,6 +43,8 @@ class TrainConfig:
     imitation_iters: int = 0
     imitation_beta_iters: int = 10  # expert acts with probability decaying 1 -> 0 over these
     imitation_min_scale: float = 0.1
+    imitation_buffer_iters: int = 8  # DAgger aggregates the labelled data of this many iterations
+    imitation_updates: int = 0  # gradient steps per iteration on the aggregate (0 = epochs over the new batch)
     # curriculum (paper: promote when hybrid 4x4 success > 80 %; proxy until the planner exists:
     # the learner's own success on its training episodes)
     start_stage: int = 1
@@ -80,11 +82,12 @@ TRAIN_PRESETS: dict[str, TrainConfig] = {
         collector="multi",
         num_envs=32,
         imitation_iters=400,
+        imitation_updates=16,
         heatmap_fraction=0.25,
         batch_norm_frames=400,
     ),
     # A seconds-long configuration for tests and smoke runs.
-    "tiny": TrainConfig(preset="tiny", num_envs=4, steps_per_env=8, epochs=1, minibatch_envs=2, promote_window=8),
+    "tiny": TrainConfig(preset="tiny", num_envs=4, steps_per_env=8, epochs=1, minibatch_envs=2, promote_window=8, imitation_updates=3),
 }
 
 

@@ -34,12 +34,14 @@ from occrl.training.checkpoint import load_checkpoint, save_checkpoint, save_wei
 from occrl.training.config import TrainConfig
 from occrl.training.curriculum import Curriculum
 from occrl.training.dagger import ExpertMixPolicy, label_with_expert
+from occrl.training.dagger_buffer import DaggerBuffer
 
 __all__ = ["Trainer", "episode_stats"]
 
 logger = logging.getLogger(__name__)
 
 CHECKPOINT = "checkpoint.pt"
+DAGGER_DATA = "dagger_buffer.pt"
 WEIGHTS = "weights.pt"
 METRICS = "metrics.jsonl"
 
@@ -108,6 +110,7 @@ class Trainer:
         self.frames = 0
         self.train_seconds = 0.0
         self.expert = ScriptedRetriever()
+        self.dagger = DaggerBuffer(config.imitation_buffer_iters)
         ckpt = self.run_dir / CHECKPOINT
         if ckpt.exists():
             obj = load_checkpoint(ckpt, self.net, self.optimizer)
@@ -118,6 +121,11 @@ class Trainer:
                 raise ValueError(f"{ckpt} was written with seed {st['seed']}, not {self.seed}")
             self.iteration, self.frames, self.train_seconds = st["iteration"], st["frames"], st["train_seconds"]
             self.curriculum.load_state_dict(st["curriculum"])
+            if self.iteration < config.imitation_iters and config.imitation_updates > 0:
+                if (self.run_dir / DAGGER_DATA).exists():
+                    self.dagger.load(self.run_dir / DAGGER_DATA)
+                else:
+                    logger.warning("no %s next to the checkpoint: the DAgger data set restarts empty (resume not exact)", DAGGER_DATA)
             logger.info("resumed %s at iteration %d (stage %d, %d frames)", ckpt, self.iteration, self.curriculum.stage, self.frames)
         self._collector = None
         self._collector_stage = None
@@ -213,11 +221,27 @@ class Trainer:
             self.net.encoder(frames.select("pixels").copy())
         self.net.encoder.eval()
 
+    def _step(self, terms: dict) -> None:
+        total = sum(terms.values())
+        self.optimizer.zero_grad()
+        total.backward()
+        torch.nn.utils.clip_grad_norm_(self.net.parameters(), self.config.max_grad_norm)
+        self.optimizer.step()
+
     def _update(self, data: TensorDictBase, phase: str) -> dict:
         c = self.config
         B = data.shape[0]
         sums: dict[str, float] = {}
         count = 0
+        if phase == "imitation" and c.imitation_updates > 0:
+            self.dagger.add(data)
+            for _ in range(c.imitation_updates):
+                terms = self._imitation_terms(self.dagger.sample(c.minibatch_envs))
+                self._step(terms)
+                for k, v in terms.items():
+                    sums[k] = sums.get(k, 0.0) + float(v.detach())
+                count += 1
+            return {k: v / count for k, v in sums.items()}
         for _ in range(c.epochs):
             order = torch.randperm(B)
             for start in range(0, B, c.minibatch_envs):
@@ -227,11 +251,7 @@ class Trainer:
                     terms = {k: v for k, v in out.items() if k.startswith("loss_")}
                 else:
                     terms = self._imitation_terms(mb)
-                total = sum(terms.values())
-                self.optimizer.zero_grad()
-                total.backward()
-                torch.nn.utils.clip_grad_norm_(self.net.parameters(), c.max_grad_norm)
-                self.optimizer.step()
+                self._step(terms)
                 for k, v in terms.items():
                     sums[k] = sums.get(k, 0.0) + float(v.detach())
                 count += 1
@@ -333,6 +353,10 @@ class Trainer:
     def save(self) -> None:
         """Write the resumable checkpoint, the weights file and the learning-curve plot."""
         save_checkpoint(self.run_dir / CHECKPOINT, self.net, self.optimizer, self.config.to_dict(), self.state())
+        if self.iteration < self.config.imitation_iters and self.config.imitation_updates > 0:
+            self.dagger.save(self.run_dir / DAGGER_DATA)
+        elif (self.run_dir / DAGGER_DATA).exists():
+            (self.run_dir / DAGGER_DATA).unlink()  # the warm start is over
         save_weights(self.run_dir / WEIGHTS, self.net, {"train_preset": self.config.preset, **self.state()})
         try:
             from occrl.training.plots import plot_learning_curves

@@ -1,0 +1,63 @@
+"""The aggregated DAgger data set: labelled sequences of the last few iterations, kept compact.
+
+DAgger trains on everything the learner has visited so far, labelled by the expert; keeping the
+last ``capacity`` iterations bounds memory. Images and heat-map labels are stored as uint8
+(the palette colours and 0/1 labels round-trip exactly).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import torch
+from tensordict import TensorDict, TensorDictBase
+
+__all__ = ["DaggerBuffer"]
+
+_KEYS = ["pixels", "is_init", "recurrent_state_h", "recurrent_state_c", "expert_action", "value_target", ("privileged", "heatmap_target")]
+
+
+class DaggerBuffer:
+    def __init__(self, capacity: int) -> None:
+        self.capacity = int(capacity)
+        self.batches: list[TensorDictBase] = []
+
+    def __len__(self) -> int:
+        return sum(b.shape[0] for b in self.batches)
+
+    def add(self, data: TensorDictBase) -> None:
+        """Store the expert-labelled [B, T] batch (copies only what the imitation loss reads)."""
+        keys = [k for k in _KEYS if k in data.keys(True)]
+        slim = data.select(*keys).clone()
+        slim.set("pixels", (slim.get("pixels") * 255).round().to(torch.uint8))
+        if ("privileged", "heatmap_target") in slim.keys(True):
+            slim.set(("privileged", "heatmap_target"), slim.get(("privileged", "heatmap_target")).to(torch.uint8))
+        self.batches.append(slim)
+        while len(self.batches) > self.capacity:
+            self.batches.pop(0)
+
+    def sample(self, num_sequences: int, generator: torch.Generator | None = None) -> TensorDictBase:
+        """``num_sequences`` random whole sequences, as float tensors again: [num_sequences, T]."""
+        sizes = torch.tensor([b.shape[0] for b in self.batches])
+        flat_idx = torch.randint(int(sizes.sum()), (num_sequences,), generator=generator)
+        bounds = torch.cumsum(sizes, 0)
+        rows = []
+        for i in flat_idx.tolist():
+            k = int(torch.searchsorted(bounds, torch.tensor(i), right=True))
+            start = 0 if k == 0 else int(bounds[k - 1])
+            rows.append(self.batches[k][i - start])
+        out = torch.stack(rows)
+        out.set("pixels", out.get("pixels").float() / 255.0)
+        if ("privileged", "heatmap_target") in out.keys(True):
+            out.set(("privileged", "heatmap_target"), out.get(("privileged", "heatmap_target")).float())
+        return out
+
+    def save(self, path: str | Path) -> None:
+        tmp = Path(str(path) + ".tmp")
+        torch.save({"capacity": self.capacity, "batches": [b.to_dict() for b in self.batches], "shapes": [list(b.shape) for b in self.batches]}, tmp)
+        tmp.replace(path)
+
+    def load(self, path: str | Path) -> None:
+        obj = torch.load(path, map_location="cpu", weights_only=True)
+        self.capacity = int(obj["capacity"])
+        self.batches = [TensorDict(d, batch_size=s) for d, s in zip(obj["batches"], obj["shapes"])]
