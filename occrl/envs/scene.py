@@ -89,6 +89,19 @@ class Scene:
 
     # ------------------------------------------------------------------ constructors
     @classmethod
+    def unchecked(cls, objects, gripper_pose, meta: dict | None = None) -> "Scene":
+        """Build without validation: for states *recreated* from noisy detections, where objects
+        may touch or slightly overlap and the target may be absent. Tasks use the checked
+        constructors."""
+        scene = object.__new__(cls)
+        object.__setattr__(scene, "objects", tuple(objects))
+        object.__setattr__(scene, "gripper_pose", tuple(float(v) for v in gripper_pose))
+        object.__setattr__(scene, "stage", None)
+        object.__setattr__(scene, "seed", None)
+        object.__setattr__(scene, "meta", dict(meta or {}))
+        return scene
+
+    @classmethod
     def from_objects(
         cls,
         objects: Iterable[dict],

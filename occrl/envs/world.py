@@ -145,7 +145,8 @@ class ShelfWorld:
         self.noise = float(noise)
         self.rng = rng if rng is not None else np.random.default_rng(0)
         self.num_objects = len(scene.objects)
-        self.target_index = scene.target_index
+        # a recreated planning state may not contain the target: -1 then
+        self.target_index = next((i for i, o in enumerate(scene.objects) if o.is_target), -1)
         self.type_ids = np.array([o.type_id for o in scene.objects], dtype=np.int64)
         self.nominal_vertices = [np.asarray(o.vertices, dtype=float) for o in scene.objects]
         self.object_radius = np.array([np.linalg.norm(v, axis=1).max() for v in self.nominal_vertices])
@@ -257,6 +258,14 @@ class ShelfWorld:
         """Each object's nominal polygon (its type's shape) at its current pose."""
         return [transform_points(v, p) for v, p in zip(self.nominal_vertices, self.object_poses())]
 
+    def set_gripper_state(self, opening: float, closed: bool, held: int | None) -> None:
+        """Set the gripper of a recreated state (planning): opening, last command, held object."""
+        if held is not None and not 0 <= held < self.num_objects:
+            raise ValueError(f"held must be an object index in [0, {self.num_objects}) or None, got {held}")
+        self.closed = bool(closed)
+        self.held = held
+        self._set_opening(float(opening))
+
     def snapshot(self) -> dict:
         """The complete state: poses, gripper opening and grasp, noise generator."""
         return {
@@ -314,7 +323,7 @@ class ShelfWorld:
 
     def _outcome(self) -> StepOutcome:
         poses = self.object_poses()
-        retrieved = self.held == self.target_index and poses[self.target_index, 1] < C.RETRIEVED_Y
+        retrieved = self.target_index >= 0 and self.held == self.target_index and poses[self.target_index, 1] < C.RETRIEVED_Y
         dropped = []
         for i in range(self.num_objects):
             if i == self.target_index and self.held == i:

@@ -1,0 +1,148 @@
+"""The hybrid planner (paper Alg. 1) as a TorchRL-style policy.
+
+Each decision: run the network on the real observation (this advances its LSTM over the real
+history and gives the heat-map), recreate the known state from the detections, generate weighted
+root states from the heat-map, run batched RHP from every root and pick an action by the
+weighted returns.
+
+Weighting. Returns are negative (-1 per action), so ``w x R`` as printed in Alg. 1 would favour
+*unlikely* roots. The planner scores root ``r`` by ``w_r x (R_r - L)`` with ``L`` one less than
+the lowest root return of this decision: every score is positive and raising a root's weight (the
+others renormalised) never lowers its own score nor raises another's, so it never lowers the
+chance that its action is chosen (tested).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import torch
+from tensordict import TensorDictBase
+from tensordict.nn import TensorDictModuleBase
+
+from occrl.envs import world_constants as C
+from occrl.modules.occnet import OccNet
+from occrl.planners.recreate import recreate
+from occrl.planners.rhp import RHPResult, rhp_batched, rhp_sequential
+from occrl.planners.states import Root, generate_states
+
+__all__ = ["HybridPlanner", "select_root", "Decision"]
+
+
+def select_root(weights: np.ndarray, returns: np.ndarray) -> int:
+    """Index of the root whose action is executed: argmax of ``w x (R - L)``, L = min(R) - 1."""
+    w = np.asarray(weights, float)
+    r = np.asarray(returns, float)
+    return int(np.argmax(w * (r - (r.min() - 1.0))))
+
+
+@dataclass
+class Decision:
+    """What one planning step did, for pictures and analysis."""
+
+    roots: list[Root]
+    result: RHPResult
+    chosen_root: int
+    action: np.ndarray
+    seconds: float
+    heatmap: np.ndarray = field(repr=False, default=None)
+
+
+class HybridPlanner(TensorDictModuleBase):
+    """Hybrid planner policy: ``env.rollout(policy=HybridPlanner(net))``.
+
+    The env needs the network's recurrent-state primer (``env.append_transform(net.make_primer())``)
+    so that the real observation history is carried between steps.
+
+    Args:
+        net: a three-headed OccNet (the heat-map head proposes where the target may be).
+        m, h: roll-outs per root and their depth (paper: 2x2, 4x4, 6x6).
+        limited: evaluate only the most likely root (Hybrid-limited).
+        max_roots: at most this many heat-map peaks become roots.
+        seed: seeds the roll-outs' policy noise; a decision is a function of the observation
+            history and this seed.
+        batched: use the lock-step RHP (False: the sequential reference).
+
+    Examples:
+        >>> import torch
+        >>> from occrl.envs import make_env
+        >>> from occrl.modules import make_occnet
+        >>> from occrl.planners import HybridPlanner
+        >>> net = make_occnet("paper").eval()
+        >>> env = make_env(batch_size=1, stage=1, seed=0, heatmap_target=False).append_transform(net.make_primer())
+        >>> td = env.rollout(2, HybridPlanner(net, m=2, h=2))
+        >>> td["action"].shape
+        torch.Size([1, 2, 4])
+    """
+
+    def __init__(
+        self,
+        net: OccNet,
+        m: int = 4,
+        h: int = 4,
+        limited: bool = False,
+        max_roots: int = 3,
+        gamma: float = C.GAMMA,
+        seed: int = 0,
+        batched: bool = True,
+    ) -> None:
+        super().__init__()
+        if net.heatmap is None:
+            raise ValueError("the hybrid planner needs a network with a heat-map head (make_occnet(heatmap=True))")
+        if m < 1 or h < 1:
+            raise ValueError(f"m and h must be >= 1, got m={m}, h={h}")
+        self.net = net.eval()
+        self.m, self.h = int(m), int(h)
+        self.limited = limited
+        self.max_roots = 1 if limited else int(max_roots)
+        self.gamma = gamma
+        self.batched = batched
+        self.generator = torch.Generator().manual_seed(int(seed))
+        self.decisions: list[Decision] = []
+        self.in_keys = ["pixels", "is_init", "recurrent_state_h", "recurrent_state_c", "gripper_pose", "gripper_opening",
+                        "gripper_closed", "objects", "target_type", "target_vertices", "target_num_vertices"]
+        self.out_keys = ["action", ("next", "recurrent_state_h"), ("next", "recurrent_state_c"), "heatmap"]
+
+    def reseed(self, seed: int) -> None:
+        self.generator.manual_seed(int(seed))
+
+    @torch.no_grad()
+    def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+        flat = tensordict.reshape(-1)
+        hidden_h = flat.get("recurrent_state_h").clone()
+        hidden_c = flat.get("recurrent_state_c").clone()
+        is_init = flat.get("is_init").reshape(-1)
+        hidden_h[is_init] = 0.0  # the LSTM starts afresh at an episode start
+        hidden_c[is_init] = 0.0
+        real = self.net.heatmap(flat.copy())  # advances the LSTM over the real history
+        heat = real.get("heatmap")[:, 0].numpy()
+        actions = []
+        for b in range(flat.shape[0]):
+            actions.append(self.decide(flat[b], heat[b], (hidden_h[b : b + 1], hidden_c[b : b + 1])).action)
+        action = torch.as_tensor(np.stack(actions), dtype=torch.float32)
+        tensordict.set("action", action.reshape(*tensordict.shape, C.ACTION_DIM))
+        tensordict.set("heatmap", real.get("heatmap").reshape(*tensordict.shape, *real.get("heatmap").shape[1:]))
+        for key in (("next", "recurrent_state_h"), ("next", "recurrent_state_c")):
+            value = real.get(key)
+            tensordict.set(key, value.reshape(*tensordict.shape, *value.shape[1:]))
+        return tensordict
+
+    def decide(self, obs: TensorDictBase, heatmap: np.ndarray, hidden) -> Decision:
+        """One planning step for one world (observation without batch dims)."""
+        t0 = time.perf_counter()
+        state = recreate(obs)
+        roots = generate_states(heatmap, state, self.max_roots)
+        if self.limited:
+            roots = [max(roots, key=lambda r: r.weight)]
+            roots[0].weight = 1.0
+        noise = torch.randn(len(roots), self.m, self.h, C.ACTION_DIM, generator=self.generator)
+        rhp = rhp_batched if self.batched else rhp_sequential
+        result = rhp(self.net, [r.state for r in roots], hidden, noise, self.gamma)
+        chosen = select_root(np.array([r.weight for r in roots]), result.value)
+        decision = Decision(roots, result, chosen, result.action[chosen], time.perf_counter() - t0, heatmap)
+        self.decisions.append(decision)
+        if len(self.decisions) > 200:
+            del self.decisions[:100]
+        return decision

@@ -1,0 +1,89 @@
+"""The planning side of the perception boundary: recreate a pymunk state from detections.
+
+Only ``ShelfEnv``'s observation keys are read (detected objects' type, pose and shape prior, the
+gripper, the target's type and shape); never ``"privileged"``. This is also where a real robot's
+detections enter (see :func:`occrl.envs.observation_from_detections`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+from tensordict import TensorDictBase
+
+from occrl.envs import world_constants as C
+from occrl.envs.geometry import polygons_overlap, transform_points
+from occrl.envs.scene import Scene, SceneObject
+from occrl.envs.world import ShelfWorld, grasp_candidate, gripper_polygons, wall_polygons
+
+__all__ = ["RecreatedState", "recreate", "with_target", "make_world"]
+
+_WALLS = wall_polygons()
+
+
+@dataclass(frozen=True)
+class RecreatedState:
+    """What the robot knows now: detected objects, gripper, and the target's type and shape."""
+
+    objects: tuple[SceneObject, ...]
+    gripper_pose: tuple[float, float, float]
+    opening: float
+    closed: bool
+    target_type: int
+    target_vertices: np.ndarray
+
+    @property
+    def target_detected(self) -> bool:
+        return any(o.is_target for o in self.objects)
+
+    def polygons(self) -> list[np.ndarray]:
+        return [o.world_vertices() for o in self.objects]
+
+
+def recreate(obs: TensorDictBase) -> RecreatedState:
+    """Recreate the known state from one observation (a tensordict without batch dims)."""
+    det = obs.get(("objects", "detected")).cpu().numpy().astype(bool)
+    type_id = obs.get(("objects", "type_id")).cpu().numpy()
+    pose = obs.get(("objects", "pose")).cpu().numpy().astype(float)
+    verts = obs.get(("objects", "vertices")).cpu().numpy().astype(float)
+    nv = obs.get(("objects", "num_vertices")).cpu().numpy()
+    target_type = int(obs.get("target_type").reshape(-1)[0])
+    objects = tuple(
+        SceneObject(int(type_id[k]), verts[k, : nv[k]], tuple(pose[k]), bool(type_id[k] == target_type)) for k in np.flatnonzero(det)
+    )
+    tnv = int(obs.get("target_num_vertices").reshape(-1)[0])
+    return RecreatedState(
+        objects=objects,
+        gripper_pose=tuple(float(v) for v in obs.get("gripper_pose").cpu().numpy()),
+        opening=float(obs.get("gripper_opening").reshape(-1)[0]),
+        closed=bool(obs.get("gripper_closed").reshape(-1)[0]),
+        target_type=target_type,
+        target_vertices=obs.get("target_vertices").cpu().numpy().astype(float)[:tnv],
+    )
+
+
+def target_fits(state: RecreatedState, pose) -> bool:
+    """Can the target sit at ``pose`` without overlapping known objects, walls or the gripper?"""
+    poly = transform_points(state.target_vertices, pose)
+    lo, hi = poly.min(0), poly.max(0)
+    if lo[0] < -C.SHELF_HALF_WIDTH or hi[0] > C.SHELF_HALF_WIDTH or lo[1] < 0.0 or hi[1] > C.SHELF_DEPTH:
+        return False
+    others = state.polygons() + [transform_points(p, state.gripper_pose) for p in gripper_polygons(state.opening)]
+    return not any(polygons_overlap(poly, o) for o in others)
+
+
+def with_target(state: RecreatedState, pose) -> RecreatedState:
+    """The state with the target hypothesised at ``pose`` (for a heat-map root)."""
+    target = SceneObject(state.target_type, state.target_vertices, tuple(float(v) for v in pose), True)
+    return replace(state, objects=state.objects + (target,))
+
+
+def make_world(state: RecreatedState) -> ShelfWorld:
+    """A nominal (noise-free) pymunk world of a recreated state, gripper and grasp included."""
+    world = ShelfWorld(Scene.unchecked(state.objects, state.gripper_pose))
+    held = None
+    if state.closed:
+        held, _ = grasp_candidate(state.gripper_pose, state.opening + 2e-3, state.polygons())
+    world.set_gripper_state(state.opening, state.closed, held)
+    return world

@@ -1,0 +1,175 @@
+"""Receding-horizon planning with an occlusion-aware heuristic (paper Alg. 2).
+
+From every root state, ``m`` roll-outs of depth ``h`` follow the stochastic policy from the LSTM
+state of the real history, in nominal pymunk worlds that render their own observations (only
+objects more than 50 % visible in the roll-out's camera are drawn). A roll-out's return is
+``sum_j gamma^(j-1) r_j + gamma^h V`` (no bootstrap after a terminal state). RHP returns, per
+root, the first action of the best roll-out and its return.
+
+:func:`rhp_batched` advances all roots x roll-outs in lock-step with one network call per depth
+step; :func:`rhp_sequential` is the plain Alg. 2, kept as the reference it is tested against.
+Both draw the policy's noise from the same tensor, so with the same seed they choose alike.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+import torch
+from tensordict import TensorDict
+
+from occrl.envs import world_constants as C
+from occrl.envs.render import PALETTE, render_labels, DEFAULT_CANVAS
+from occrl.envs.robot_frame import robot_centric_points
+from occrl.envs.visibility import detect, visible_fractions
+from occrl.envs.world import ShelfWorld, wall_polygons
+from occrl.modules.occnet import OccNet
+from occrl.planners.recreate import RecreatedState, make_world
+
+__all__ = ["RHPResult", "rhp_batched", "rhp_sequential", "render_pixels", "NetworkStepper"]
+
+_WALLS = wall_polygons()
+_PALETTE_FLOAT = torch.from_numpy(PALETTE.astype(np.float32) / 255.0)
+
+
+def render_pixels(worlds: Sequence[ShelfWorld]) -> torch.Tensor:
+    """The network input each world's camera would give: (N, 3, 64, 64) in [0, 1]."""
+    labels = []
+    poses = []
+    for w in worlds:
+        polys = w.object_world_polygons()
+        gp = w.gripper_pose()
+        seen = detect(visible_fractions(polys, gp, _WALLS)) if polys else np.zeros(0, bool)
+        labels.append(
+            render_labels(gp, w.opening, [p for p, s in zip(polys, seen) if s], [i == w.target_index for i, s in enumerate(seen) if s])
+        )
+        poses.append(gp)
+    crop = DEFAULT_CANVAS.lookup(np.stack(labels), robot_centric_points(np.stack(poses)))
+    return _PALETTE_FLOAT[torch.from_numpy(crop.astype(np.int64))].permute(0, 3, 1, 2).contiguous()
+
+
+class NetworkStepper:
+    """One LSTM step of an OccNet on a batch of images, through its TensorDict modules."""
+
+    def __init__(self, net: OccNet) -> None:
+        self.net = net
+        self.head = net.actor.module[0]  # writes "loc", "scale" from "belief"
+
+    @torch.no_grad()
+    def step(self, pixels: torch.Tensor, h: torch.Tensor, c: torch.Tensor) -> tuple[TensorDict, torch.Tensor, torch.Tensor]:
+        n = pixels.shape[0]
+        td = TensorDict(
+            {"pixels": pixels, "recurrent_state_h": h, "recurrent_state_c": c, "is_init": torch.zeros(n, 1, dtype=torch.bool)},
+            batch_size=[n],
+        )
+        td = self.net.trunk(td)
+        td = self.head(td)
+        return td, td.get(("next", "recurrent_state_h")), td.get(("next", "recurrent_state_c"))
+
+    @torch.no_grad()
+    def value(self, td: TensorDict) -> torch.Tensor:
+        return self.net.critic(td.select("belief").copy()).get("state_value").squeeze(-1)
+
+
+@dataclass
+class RHPResult:
+    """Per root: the chosen first action and its return; all roll-outs' first actions and returns."""
+
+    action: np.ndarray  # (R, 4)
+    value: np.ndarray  # (R,)
+    returns: np.ndarray  # (R, m)
+    first_actions: np.ndarray  # (R, m, 4)
+    steps: int  # world steps simulated
+
+
+def _finish(returns: np.ndarray, first: np.ndarray, steps: int) -> RHPResult:
+    best = returns.argmax(axis=1)
+    ar = np.arange(returns.shape[0])
+    return RHPResult(first[ar, best], returns[ar, best], returns, first, steps)
+
+
+def rhp_batched(
+    net: OccNet,
+    roots: Sequence[RecreatedState],
+    hidden: tuple[torch.Tensor, torch.Tensor],
+    noise: torch.Tensor,
+    gamma: float = C.GAMMA,
+) -> RHPResult:
+    """All roots x m roll-outs in lock-step. ``hidden``: the LSTM state before the current
+    observation, each (1, layers, H). ``noise``: (R, m, h, 4) standard normal draws."""
+    R, m, depth, _ = noise.shape
+    stepper = NetworkStepper(net)
+    worlds = [make_world(root) for root in roots for _ in range(m)]
+    n = len(worlds)
+    h = hidden[0].expand(n, *hidden[0].shape[1:]).contiguous()
+    c = hidden[1].expand(n, *hidden[1].shape[1:]).contiguous()
+    td, h, c = stepper.step(render_pixels(worlds), h, c)
+    eps = noise.reshape(n, depth, 4)
+    ret = np.zeros(n)
+    alive = np.ones(n, dtype=bool)
+    first = np.zeros((n, 4))
+    discount = 1.0
+    steps = 0
+    for j in range(depth):
+        action = (td.get("loc") + td.get("scale") * eps[:, j]).numpy().astype(np.float64)
+        if j == 0:
+            first = action.copy()
+        for k in np.flatnonzero(alive):
+            out = worlds[k].step(action[k])
+            steps += 1
+            ret[k] += discount * out.reward
+            if out.terminal:
+                alive[k] = False
+        discount *= gamma
+        if not alive.any():
+            break
+        idx = torch.from_numpy(np.flatnonzero(alive))
+        sub, h_new, c_new = stepper.step(render_pixels([worlds[k] for k in idx.tolist()]), h[idx], c[idx])
+        # alive rows move on; finished rows keep their last outputs (never read again)
+        td = td.clone()
+        for key in ("belief", "loc", "scale"):
+            td.get(key)[idx] = sub.get(key)
+        h, c = h.clone(), c.clone()
+        h[idx], c[idx] = h_new, c_new
+    if alive.any():
+        idx = torch.from_numpy(np.flatnonzero(alive))
+        ret[alive] += discount * stepper.value(td[idx]).numpy()
+    return _finish(ret.reshape(R, m), first.reshape(R, m, 4), steps)
+
+
+def rhp_sequential(
+    net: OccNet,
+    roots: Sequence[RecreatedState],
+    hidden: tuple[torch.Tensor, torch.Tensor],
+    noise: torch.Tensor,
+    gamma: float = C.GAMMA,
+) -> RHPResult:
+    """Alg. 2 as printed: for each root, for each roll-out, step by step (the reference)."""
+    R, m, depth, _ = noise.shape
+    stepper = NetworkStepper(net)
+    returns = np.zeros((R, m))
+    first = np.zeros((R, m, 4))
+    steps = 0
+    for r, root in enumerate(roots):
+        for i in range(m):
+            world = make_world(root)
+            td, h, c = stepper.step(render_pixels([world]), hidden[0], hidden[1])
+            ret, discount, terminal = 0.0, 1.0, False
+            for j in range(depth):
+                action = (td.get("loc") + td.get("scale") * noise[r, i, j]).numpy().astype(np.float64)[0]
+                if j == 0:
+                    first[r, i] = action
+                out = world.step(action)
+                steps += 1
+                ret += discount * out.reward
+                discount *= gamma
+                if out.terminal:
+                    terminal = True
+                    break
+                td, h, c = stepper.step(render_pixels([world]), h, c)
+            if not terminal:
+                ret += discount * float(stepper.value(td)[0])
+            returns[r, i] = ret
+    return _finish(returns, first, steps)

@@ -1,0 +1,87 @@
+"""generateStates (paper Alg. 1, line 2): root states for RHP from the heat-map.
+
+If the target is detected there is one root, the recreated state, with weight 1. Otherwise the
+heat-map's peaks (greedy non-maximum suppression, at most ``max_roots``) each give a root with the
+target placed at the peak; a placement that collides is moved to the nearest free spot within a
+few centimetres (trying several orientations), or dropped. A root's weight is the heat-map mass
+around its peak relative to the other roots'.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from occrl.envs.robot_frame import DEFAULT_FORWARD_OFFSET, DEFAULT_WINDOW, robot_centric_points
+from occrl.planners.recreate import RecreatedState, target_fits, with_target
+
+__all__ = ["Root", "generate_states", "heatmap_peaks"]
+
+_ORIENTATIONS = np.radians([0.0, 45.0, 90.0, 135.0])
+_RINGS = [0.0, 0.01, 0.02, 0.03, 0.04]
+
+
+@dataclass
+class Root:
+    state: RecreatedState
+    weight: float
+    peak_pixel: tuple[int, int] | None = None  # (row, col) in the heat-map, None when the target is seen
+    target_pose: tuple[float, float, float] | None = None
+
+
+def heatmap_peaks(heat: np.ndarray, max_peaks: int = 3, radius: int = 6, rel_threshold: float = 0.2) -> list[tuple[int, int, float]]:
+    """Greedy non-maximum suppression: (row, col, mass) of up to ``max_peaks`` peaks whose height
+    is at least ``rel_threshold`` of the highest; mass is the heat inside ``radius`` pixels."""
+    h = np.asarray(heat, dtype=float).copy()
+    top = h.max()
+    if not np.isfinite(top) or top <= 1e-6:
+        return []
+    rows, cols = np.mgrid[: h.shape[0], : h.shape[1]]
+    peaks = []
+    for _ in range(max_peaks):
+        r, c = np.unravel_index(int(h.argmax()), h.shape)
+        if h[r, c] < rel_threshold * top:
+            break
+        disk = (rows - r) ** 2 + (cols - c) ** 2 <= radius**2
+        peaks.append((int(r), int(c), float(h[disk].sum())))
+        h[disk] = 0.0
+    return peaks
+
+
+def generate_states(
+    heatmap: np.ndarray,
+    state: RecreatedState,
+    max_roots: int = 3,
+    window: float = DEFAULT_WINDOW,
+    forward_offset: float = DEFAULT_FORWARD_OFFSET,
+) -> list[Root]:
+    """Weighted root states from the heat-map (robot-centric, (S, S)) and the recreated state."""
+    if state.target_detected:
+        return [Root(state, 1.0)]
+    size = heatmap.shape[-1]
+    points = robot_centric_points(np.asarray(state.gripper_pose, float), window, size, forward_offset)
+    roots = []
+    for r, c, mass in heatmap_peaks(heatmap, max_roots):
+        pose = _free_pose(state, points[r, c])
+        if pose is not None:
+            roots.append(Root(with_target(state, pose), mass, (r, c), pose))
+    if not roots:  # nowhere plausible: plan in the known state only
+        return [Root(state, 1.0)]
+    total = sum(rt.weight for rt in roots)
+    for rt in roots:
+        rt.weight = rt.weight / total if total > 0 else 1.0 / len(roots)
+    return roots
+
+
+def _free_pose(state: RecreatedState, xy: np.ndarray) -> tuple[float, float, float] | None:
+    for ring in _RINGS:
+        n = 1 if ring == 0 else 8
+        for k in range(n):
+            ang = 2 * math.pi * k / n
+            p = (float(xy[0] + ring * math.cos(ang)), float(xy[1] + ring * math.sin(ang)))
+            for th in _ORIENTATIONS:
+                if target_fits(state, (*p, float(th))):
+                    return (*p, float(th))
+    return None

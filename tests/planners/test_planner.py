@@ -1,0 +1,109 @@
+import numpy as np
+import pytest
+import torch
+
+from occrl.envs import make_env
+from occrl.modules import make_occnet
+from occrl.planners import HybridPlanner, generate_states, heatmap_peaks, recreate, rhp_batched, rhp_sequential, select_root
+from occrl.planners.recreate import target_fits
+from tests.helpers import scene
+
+
+@pytest.fixture(scope="module")
+def net():
+    torch.manual_seed(0)
+    return make_occnet("paper").eval()
+
+
+def _env(net, s, **kw):
+    return make_env(batch_size=1, scenes=[s], heatmap_target=False, **kw).append_transform(net.make_primer())
+
+
+def test_raising_a_roots_weight_never_lowers_the_chance_its_action_wins():
+    rng = np.random.default_rng(0)
+    for _ in range(2000):
+        n = rng.integers(1, 5)
+        w = rng.dirichlet(np.ones(n))
+        r = -rng.uniform(1, 60, n)
+        i = rng.integers(n)
+        before = select_root(w, r) == i
+        w2 = w.copy()
+        w2[i] *= rng.uniform(1.0, 5.0)
+        w2 /= w2.sum()
+        after = select_root(w2, r) == i
+        assert after or not before
+    # a likelier root wins when returns tie; with equal weights the better return wins
+    assert select_root(np.array([0.2, 0.8]), np.array([-5.0, -5.0])) == 1
+    assert select_root(np.array([0.5, 0.5]), np.array([-9.0, -4.0])) == 1
+
+
+def test_batched_rhp_chooses_like_the_sequential_reference(net):
+    s = scene([(0.0, 0.15, 0.0, True), (0.1, 0.2, 0.3, False), (-0.1, 0.25, 0.0, False)])
+    td = _env(net, s).reset()
+    state = recreate(td[0])
+    hidden = (td["recurrent_state_h"], td["recurrent_state_c"])
+    for seed in range(3):
+        noise = torch.randn(2, 3, 3, 4, generator=torch.Generator().manual_seed(seed))
+        a = rhp_batched(net, [state, state], hidden, noise)
+        b = rhp_sequential(net, [state, state], hidden, noise)
+        assert np.array_equal(a.returns.argmax(1), b.returns.argmax(1))
+        np.testing.assert_allclose(a.action, b.action, atol=1e-5)
+        np.testing.assert_allclose(a.returns, b.returns, atol=1e-4)
+        assert a.steps == b.steps
+
+
+def test_planner_never_reads_privileged_entries(net):
+    s = scene([(0.0, 0.1, 0.0, False), (0.02, 0.28, 0.0, True), (-0.12, 0.2, 0.5, False)])
+    env = _env(net, s)
+    td = env.reset()
+    stripped = td.exclude("privileged")
+    a = HybridPlanner(net, m=2, h=2, seed=4)(td.clone())["action"]
+    b = HybridPlanner(net, m=2, h=2, seed=4)(stripped.clone())["action"]
+    assert torch.equal(a, b)
+
+
+def test_one_root_when_the_target_is_detected(net):
+    s = scene([(0.0, 0.15, 0.0, True)])
+    td = _env(net, s).reset()
+    state = recreate(td[0])
+    assert state.target_detected
+    roots = generate_states(np.random.default_rng(0).random((64, 64)), state)
+    assert len(roots) == 1 and roots[0].weight == 1.0
+
+
+def test_heatmap_peaks_become_weighted_roots_at_free_places(net):
+    s = scene([(0.0, 0.1, 0.0, False), (0.0, 0.28, 0.0, True)])  # target hidden behind the box
+    td = _env(net, s).reset()
+    state = recreate(td[0])
+    assert not state.target_detected
+    from occrl.envs.robot_frame import robot_centric_pixels
+
+    heat = np.zeros((64, 64))
+    spots = [(0.0, 0.28), (0.15, 0.3)]
+    masses = [2.0, 1.0]
+    for (x, y), mass in zip(spots, masses):
+        c, r = robot_centric_pixels(np.array([[[x, y]]]), np.array([state.gripper_pose]))[0, 0]
+        rows, cols = np.mgrid[:64, :64]
+        heat += mass * np.exp(-((rows - r) ** 2 + (cols - c) ** 2) / 4.0)
+    peaks = heatmap_peaks(heat)
+    assert len(peaks) == 2
+    roots = generate_states(heat, state)
+    assert len(roots) == 2
+    assert roots[0].weight == pytest.approx(2 / 3, abs=0.05) and sum(r.weight for r in roots) == pytest.approx(1.0)
+    for root, (x, y) in zip(roots, spots):
+        assert np.hypot(root.target_pose[0] - x, root.target_pose[1] - y) < 0.02
+        assert target_fits(state, root.target_pose)
+        assert root.state.target_detected  # the hypothesised target is in the root state
+
+
+def test_hybrid_planner_runs_in_rollout_and_is_reproducible(net):
+    s = scene([(0.0, 0.15, 0.0, True), (0.1, 0.25, 0.3, False)])
+    a = _env(net, s).rollout(3, HybridPlanner(net, m=2, h=2, seed=1))
+    b = _env(net, s).rollout(3, HybridPlanner(net, m=2, h=2, seed=1))
+    assert torch.equal(a["action"], b["action"])
+    assert ("next", "recurrent_state_h") in a.keys(True)
+
+
+def test_planner_rejects_a_net_without_heatmap():
+    with pytest.raises(ValueError, match="heat-map head"):
+        HybridPlanner(make_occnet("paper", heatmap=False))
