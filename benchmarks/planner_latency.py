@@ -1,0 +1,88 @@
+"""Hybrid-planner decision time on one core, and batched RHP against the sequential reference.
+
+Usage:
+    python benchmarks/planner_latency.py [--decisions 30] [--weights PATH]
+
+Decisions are taken on observations from stage-2 episodes (the scripted retriever drives, so the
+states are realistic; the target is often hidden, giving up to 3 heat-map roots). Uses the
+shipped network when present, else ``--weights``, else an untrained paper net (says which).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import numpy as np
+import torch
+
+from occrl.baselines import ScriptedRetriever
+from occrl.envs import Scene, make_env
+from occrl.modules import make_occnet
+from occrl.planners import HybridPlanner
+
+
+def load_net(weights: str | None):
+    from occrl.pretrained import available, load_pretrained
+    from occrl.training.checkpoint import load_weights
+
+    if weights:
+        return load_weights(weights), weights
+    if "occnet" in available():
+        return load_pretrained("occnet"), "shipped occnet"
+    torch.manual_seed(0)
+    return make_occnet("paper").eval(), "untrained paper net"
+
+
+def observations(net, count: int):
+    """(observation, hidden) pairs along scripted stage-2 episodes."""
+    out = []
+    seed = 0
+    while len(out) < count:
+        env = make_env(batch_size=1, scenes=[Scene.sample(2, seed=20_000 + seed)], heatmap_target=False).append_transform(net.make_primer())
+        seed += 1
+        td = env.rollout(12, ScriptedRetriever())
+        for t in range(0, td.shape[1], 3):
+            out.append(td[:, t].exclude("privileged"))
+    return out[:count]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--decisions", type=int, default=30)
+    parser.add_argument("--weights", default=None)
+    args = parser.parse_args()
+    torch.set_num_threads(1)
+    net, name = load_net(args.weights)
+    obs = observations(net, args.decisions)
+    print(f"network: {name}; {len(obs)} decisions on stage-2 states; one core")
+    for m, h in ((2, 2), (4, 4), (6, 6)):
+        planner = HybridPlanner(net, m=m, h=h, seed=0)
+        times, roots = [], []
+        for td in obs:
+            planner(td.clone())
+            times.append(planner.decisions[-1].seconds)
+            roots.append(len(planner.decisions[-1].roots))
+        times = np.array(times) * 1e3
+        print(f"hybrid {m}x{h}: p50 {np.percentile(times, 50):6.1f} ms, p95 {np.percentile(times, 95):6.1f} ms (roots per decision: mean {np.mean(roots):.2f}, max {max(roots)})")
+    # batched against sequential on the same decisions and noise
+    tb = ts = 0.0
+    same = 0
+    for k, td in enumerate(obs):
+        a = HybridPlanner(net, m=4, h=4, seed=k)
+        b = HybridPlanner(net, m=4, h=4, seed=k, batched=False)
+        t = time.perf_counter()
+        act_a = a(td.clone())["action"]
+        tb += time.perf_counter() - t
+        t = time.perf_counter()
+        act_b = b(td.clone())["action"]
+        ts += time.perf_counter() - t
+        same += bool(torch.allclose(act_a, act_b, atol=1e-5))
+    print(f"4x4 batched {1e3 * tb / len(obs):.1f} ms vs sequential {1e3 * ts / len(obs):.1f} ms per decision: {ts / tb:.1f}x faster; same action in {same}/{len(obs)} decisions")
+
+
+if __name__ == "__main__":
+    main()
