@@ -75,25 +75,18 @@ def _train(args: argparse.Namespace) -> int:
 
 
 def _eval(args: argparse.Namespace) -> int:
-    import numpy as np
-    from tqdm import tqdm
+    from occrl.eval.methods import _HYBRID, METHODS
+    from occrl.eval.runner import run_tasks, summarize
 
-    from occrl.eval.methods import make_method
-    from occrl.eval.runner import EVAL_SEED_BASE, run_episodes, summarize, task_scenes
-
-    method = make_method(args.method, args.weights)
+    if args.method not in METHODS:
+        print(f"unknown method {args.method!r}; available: {METHODS}", file=sys.stderr)
+        return 2
     seeds = list(range(args.seed, args.seed + args.tasks))
-    scenes = task_scenes(args.stage, seeds, args.objects)
-    results = []
-    bar = tqdm(total=len(scenes), desc=f"{args.method} stage {args.stage}", unit="task", disable=args.no_progress)
-    for start in range(0, len(scenes), args.batch):
-        chunk = slice(start, start + args.batch)
-        results += run_episodes(method.policy, scenes[chunk], seeds[chunk], args.noise, args.batch, method.primers, method.exploration)
-        bar.update(len(scenes[chunk]))
-    bar.close()
+    batch = 1 if args.method in _HYBRID else args.batch  # planners: one world per task, exact per-task time
+    results = run_tasks(args.method, args.stage, seeds, args.noise, args.objects, batch, args.workers, args.weights, not args.no_progress)
     summary = {
         "method": args.method,
-        "network": method.network,
+        "network": args.weights or network_of(args.method),
         "stage": args.stage,
         "objects": args.objects,
         "noise": args.noise,
@@ -112,6 +105,13 @@ def _eval(args: argparse.Namespace) -> int:
         Path(args.out).write_text(json.dumps(summary, indent=2))
         print(f"wrote {args.out}")
     return 0
+
+
+def network_of(method: str) -> str | None:
+    """The shipped network a method uses."""
+    if method == "scripted":
+        return None
+    return "occnet-noheatmap" if method in ("greedy", "stochastic") else "occnet"
 
 
 def _bench(args: argparse.Namespace) -> int:
@@ -156,13 +156,14 @@ def main(argv: list[str] | None = None) -> int:
     t.set_defaults(func=_train)
 
     e = sub.add_parser("eval", help="run a method on fixed task seeds and report success, actions, time")
-    e.add_argument("--method", required=True, help="scripted, greedy, stochastic, stochastic-gen")
+    e.add_argument("--method", required=True, help="hybrid-2x2, hybrid-4x4, hybrid-6x6, hybrid-lim-4x4, greedy, stochastic, stochastic-gen, scripted")
     e.add_argument("--stage", type=int, default=1, choices=[1, 2, 3])
     e.add_argument("--objects", type=int, default=None, help="fixed number of objects (clutter sweep)")
     e.add_argument("--noise", type=float, default=0.0)
     e.add_argument("--tasks", type=int, default=200)
     e.add_argument("--seed", type=int, default=10_000_000, help="first task seed (held-out range by default)")
-    e.add_argument("--batch", type=int, default=16, help="worlds stepped together")
+    e.add_argument("--batch", type=int, default=16, help="worlds stepped together (policies; planners use 1)")
+    e.add_argument("--workers", type=int, default=1, help="processes to spread tasks over")
     e.add_argument("--weights", default=None, help="network weights file instead of the shipped one")
     e.add_argument("--out", default=None, help="write the results as JSON")
     e.add_argument("--no-progress", action="store_true")

@@ -19,7 +19,7 @@ from torchrl.envs.utils import ExplorationType, set_exploration_type
 from occrl.envs import Scene, make_env
 from occrl.envs import world_constants as C
 
-__all__ = ["EpisodeResult", "run_episodes", "summarize", "task_scenes", "wilson_interval", "EVAL_SEED_BASE"]
+__all__ = ["EpisodeResult", "run_episodes", "run_tasks", "summarize", "task_scenes", "wilson_interval", "EVAL_SEED_BASE"]
 
 EVAL_SEED_BASE = 10_000_000
 TIME_LIMIT_S = 120.0
@@ -76,6 +76,11 @@ def run_episodes(
         env = make_env(batch_size=len(chunk), scenes=chunk, noise=noise, seed=[int(s) for s in chunk_seeds], heatmap_target=heatmap_target)
         for p in primers:
             env.append_transform(p.clone() if hasattr(p, "clone") else p)
+        # randomness of the decision maker follows the chunk's first task seed, so results do not
+        # depend on how tasks are spread over processes
+        torch.manual_seed(int(chunk_seeds[0]))
+        if hasattr(policy, "reseed"):
+            policy.reseed(int(chunk_seeds[0]))
         t = time.time()
         with torch.no_grad(), set_exploration_type(exploration):
             td = env.rollout(C.MAX_EPISODE_STEPS, policy, break_when_any_done=False)
@@ -104,3 +109,56 @@ def summarize(results: Sequence[EpisodeResult]) -> dict:
         "mean_actions": float(np.mean([r.actions for r in results])) if n else float("nan"),
         "mean_seconds": float(np.mean([r.seconds for r in results])) if n else float("nan"),
     }
+
+
+_WORKER: dict = {}
+
+
+def _init_worker(method: str, weights, threads: int) -> None:
+    from occrl.eval.methods import make_method
+
+    torch.set_num_threads(threads)
+    _WORKER["method"] = make_method(method, weights)
+
+
+def _run_chunk(args) -> list[EpisodeResult]:
+    stage, seeds, num_objects, noise = args
+    m = _WORKER["method"]
+    return run_episodes(m.policy, task_scenes(stage, seeds, num_objects), seeds, noise, len(seeds), m.primers, m.exploration)
+
+
+def run_tasks(
+    method: str,
+    stage: int,
+    seeds: Sequence[int],
+    noise: float = 0.0,
+    num_objects: int | None = None,
+    batch: int = 16,
+    workers: int = 1,
+    weights=None,
+    progress: bool = True,
+) -> list[EpisodeResult]:
+    """Evaluate a named method on task seeds, in chunks of ``batch`` worlds spread over
+    ``workers`` processes (results do not depend on ``workers``)."""
+    from tqdm import tqdm
+
+    chunks = [list(seeds[i : i + batch]) for i in range(0, len(seeds), batch)]
+    bar = tqdm(total=len(seeds), desc=f"{method} stage {stage} noise {noise}", unit="task", disable=not progress)
+    results: list[list[EpisodeResult]] = [None] * len(chunks)
+    jobs = [(stage, c, num_objects, noise) for c in chunks]
+    if workers <= 1:
+        _init_worker(method, weights, torch.get_num_threads())
+        for k, job in enumerate(jobs):
+            results[k] = _run_chunk(job)
+            bar.update(len(job[1]))
+    else:
+        import multiprocessing as mp
+        from concurrent.futures import ProcessPoolExecutor, as_completed
+
+        with ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn"), initializer=_init_worker, initargs=(method, weights, 1)) as pool:
+            futures = {pool.submit(_run_chunk, job): k for k, job in enumerate(jobs)}
+            for f in as_completed(futures):
+                results[futures[f]] = f.result()
+                bar.update(len(jobs[futures[f]][1]))
+    bar.close()
+    return [r for chunk in results for r in chunk]
