@@ -44,24 +44,45 @@ def _true_panel(step: TensorDictBase) -> np.ndarray:
     return np.asarray(img)
 
 
-def _obs_panel(step: TensorDictBase, heatmap: np.ndarray | None = None) -> np.ndarray:
+def _obs_panel(step: TensorDictBase, heatmap: np.ndarray | None = None, decision=None) -> np.ndarray:
     pix = (step.get("pixels").permute(1, 2, 0).numpy() * 255).astype(np.uint8)
     img = Image.fromarray(pix).resize((PANEL, PANEL), Image.NEAREST)
     if heatmap is not None:
-        # contour-like overlay: tint pixels by predicted likelihood
-        hm = Image.fromarray((np.clip(heatmap, 0, 1) * 255).astype(np.uint8)).resize((PANEL, PANEL), Image.BILINEAR)
-        hm = np.asarray(hm).astype(float) / 255.0
+        # contour lines of the heat-map at 25 / 50 / 75 % of its maximum (paper Fig. 3)
+        hm = np.clip(heatmap, 0, None)
+        hm = hm / hm.max() if hm.max() > 0 else hm
+        hm = np.asarray(Image.fromarray((hm * 255).astype(np.uint8)).resize((PANEL, PANEL), Image.BILINEAR)).astype(float) / 255.0
         arr = np.asarray(img).astype(float)
-        band = (np.abs(hm - 0.25) < 0.03) | (np.abs(hm - 0.5) < 0.03) | (np.abs(hm - 0.75) < 0.03)
-        arr[band] = [255, 0, 255]
+        for level in (0.25, 0.5, 0.75):
+            above = hm >= level
+            edge = np.zeros_like(above)
+            edge[1:] |= above[1:] != above[:-1]
+            edge[:, 1:] |= above[:, 1:] != above[:, :-1]
+            arr[edge] = [230, 0, 230]
         img = Image.fromarray(arr.astype(np.uint8))
+    if decision is not None:
+        draw = ImageDraw.Draw(img)
+        scale = PANEL / hm.shape[0] if heatmap is not None else PANEL / 64
+        for k, root in enumerate(decision.roots):
+            if root.peak_pixel is None:
+                continue
+            r, c = root.peak_pixel
+            x, y = (c + 0.5) * scale, (r + 0.5) * scale
+            colour = (255, 140, 0) if k == decision.chosen_root else (120, 0, 160)
+            draw.ellipse([x - 5, y - 5, x + 5, y + 5], outline=colour, width=2)
+            draw.text((x + 6, y - 6), f"{root.weight:.2f}", fill=colour)
+        # the chosen action as an arrow from the camera (image: gripper below the centre)
+        a = decision.action
+        cx, cy = PANEL / 2, PANEL * (0.5 + 0.15 / 0.8)
+        draw.line([cx, cy, cx + a[1] * 30, cy - a[0] * 30], fill=(255, 140, 0), width=3)
     return np.asarray(img)
 
 
-def frame(step: TensorDictBase, caption: str = "", heatmap: np.ndarray | None = None) -> np.ndarray:
-    """One picture of one step (a tensordict with no batch dims): true scene | observation."""
+def frame(step: TensorDictBase, caption: str = "", heatmap: np.ndarray | None = None, decision=None) -> np.ndarray:
+    """One picture of one step (a tensordict with no batch dims): true scene | observation, with
+    the heat-map's contours, the planner's root states (weights; orange = chosen) and action."""
     left = _true_panel(step)
-    right = _obs_panel(step, heatmap)
+    right = _obs_panel(step, heatmap, decision)
     h = max(left.shape[0], right.shape[0]) + 18
     out = np.full((h, left.shape[1] + right.shape[1] + 6, 3), 255, np.uint8)
     out[18 : 18 + left.shape[0], : left.shape[1]] = left
@@ -71,8 +92,12 @@ def frame(step: TensorDictBase, caption: str = "", heatmap: np.ndarray | None = 
     return np.asarray(img)
 
 
-def episode_frames(rollout: TensorDictBase, heatmaps: Sequence[np.ndarray] | None = None) -> list[np.ndarray]:
-    """Frames of a single-episode rollout (batch dims [T]); the last frame shows the final state."""
+def episode_frames(rollout: TensorDictBase, heatmaps: Sequence[np.ndarray] | None = None, decisions: Sequence | None = None) -> list[np.ndarray]:
+    """Frames of a single-episode rollout (batch dims [T]); the last frame shows the final state.
+
+    With a planner's ``decisions`` (``HybridPlanner.decisions``, one per step), each frame also
+    shows the heat-map contours, the root states and the chosen action (paper Fig. 3 and 6).
+    A ``"heatmap"`` entry in the rollout is drawn when ``heatmaps`` is not given."""
     if rollout.batch_dims != 1:
         raise ValueError(f"expected one episode with batch dims [T], got batch size {tuple(rollout.batch_size)}")
     frames = []
@@ -81,7 +106,11 @@ def episode_frames(rollout: TensorDictBase, heatmaps: Sequence[np.ndarray] | Non
         step = rollout[t]
         a = step.get("action").numpy()
         cap = f"step {t}  action fwd {a[0]:+.2f} lat {a[1]:+.2f} rot {a[2]:+.2f} grip {'close' if a[3] > 0 else 'open'}"
-        frames.append(frame(step, cap, None if heatmaps is None else heatmaps[t]))
+        heat = heatmaps[t] if heatmaps is not None else (step.get("heatmap")[0].numpy() if "heatmap" in step.keys() else None)
+        dec = decisions[t] if decisions is not None and t < len(decisions) else None
+        if dec is not None:
+            cap += f"  roots {len(dec.roots)}  plan {dec.seconds * 1000:.0f} ms"
+        frames.append(frame(step, cap, heat, dec))
     last = rollout[T - 1].get("next")
     end = "success" if bool(last.get("success").any()) else ("dropped an object" if bool(last.get("dropped").any()) else "not retrieved")
     frames.append(frame(last, f"after {T} actions: {end}"))

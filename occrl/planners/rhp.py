@@ -4,7 +4,8 @@ From every root state, ``m`` roll-outs of depth ``h`` follow the stochastic poli
 state of the real history, in nominal pymunk worlds that render their own observations (only
 objects more than 50 % visible in the roll-out's camera are drawn). A roll-out's return is
 ``sum_j gamma^(j-1) r_j + gamma^h V`` (no bootstrap after a terminal state). RHP returns, per
-root, the first action of the best roll-out and its return.
+root, the first action of the best roll-out and its return. Sampled actions are clipped to
+[-1, 1] (the env would clip them anyway).
 
 :func:`rhp_batched` advances all roots x roll-outs in lock-step with one network call per depth
 step; :func:`rhp_sequential` is the plain Alg. 2, kept as the reference it is tested against.
@@ -113,7 +114,7 @@ def rhp_batched(
     discount = 1.0
     steps = 0
     for j in range(depth):
-        action = (td.get("loc") + td.get("scale") * eps[:, j]).numpy().astype(np.float64)
+        action = (td.get("loc") + td.get("scale") * eps[:, j]).clamp(-1.0, 1.0).numpy().astype(np.float64)
         if j == 0:
             first = action.copy()
         for k in np.flatnonzero(alive):
@@ -158,7 +159,7 @@ def rhp_sequential(
             td, h, c = stepper.step(render_pixels([world]), hidden[0], hidden[1])
             ret, discount, terminal = 0.0, 1.0, False
             for j in range(depth):
-                action = (td.get("loc") + td.get("scale") * noise[r, i, j]).numpy().astype(np.float64)[0]
+                action = (td.get("loc") + td.get("scale") * noise[r, i, j]).clamp(-1.0, 1.0).numpy().astype(np.float64)[0]
                 if j == 0:
                     first[r, i] = action
                 out = world.step(action)

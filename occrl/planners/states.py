@@ -1,9 +1,10 @@
 """generateStates (paper Alg. 1, line 2): root states for RHP from the heat-map.
 
 If the target is detected there is one root, the recreated state, with weight 1. Otherwise the
-heat-map's peaks (greedy non-maximum suppression, at most ``max_roots``) each give a root with the
-target placed at the peak; a placement that collides is moved to the nearest free spot within a
-few centimetres (trying several orientations), or dropped. A root's weight is the heat-map mass
+heat-map's peaks on the shelf (greedy non-maximum suppression) each give a root with the target
+placed at the peak, until ``max_roots`` roots; a placement that collides is moved to the nearest
+free spot within a few centimetres (trying several orientations), or dropped (the next peak is
+tried). A root's weight is the heat-map mass
 around its peak relative to the other roots'.
 """
 
@@ -14,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from occrl.envs import world_constants as C
 from occrl.envs.robot_frame import DEFAULT_FORWARD_OFFSET, DEFAULT_WINDOW, robot_centric_points
 from occrl.planners.recreate import RecreatedState, target_fits, with_target
 
@@ -62,11 +64,15 @@ def generate_states(
         return [Root(state, 1.0)]
     size = heatmap.shape[-1]
     points = robot_centric_points(np.asarray(state.gripper_pose, float), window, size, forward_offset)
+    # the target is on the shelf (a task prior): ignore heat outside it
+    on_shelf = (np.abs(points[..., 0]) < C.SHELF_HALF_WIDTH) & (points[..., 1] > 0.0) & (points[..., 1] < C.SHELF_DEPTH)
     roots = []
-    for r, c, mass in heatmap_peaks(heatmap, max_roots):
+    for r, c, mass in heatmap_peaks(np.where(on_shelf, heatmap, 0.0), 3 * max_roots):
         pose = _free_pose(state, points[r, c])
         if pose is not None:
             roots.append(Root(with_target(state, pose), mass, (r, c), pose))
+        if len(roots) == max_roots:
+            break
     if not roots:  # nowhere plausible: plan in the known state only
         return [Root(state, 1.0)]
     total = sum(rt.weight for rt in roots)
