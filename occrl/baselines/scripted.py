@@ -35,7 +35,7 @@ __all__ = ["ScriptedRetriever"]
 
 _APPROACH_ANGLES = np.radians(np.arange(-45.0, 45.1, 5.0))
 _FIT_WIDTH = C.GRIPPER_STROKE - 0.012
-_OFFSETS = np.arange(0.002, 0.0361, 0.002)
+_OFFSETS = np.arange(0.001, 0.0361, 0.001)
 _LATERAL_OFFSETS = np.concatenate([[0.0], np.stack([_OFFSETS, -_OFFSETS], 1).ravel()])
 _OPEN_GRIPPER = gripper_polygons(C.GRIPPER_STROKE)
 _WALLS = wall_polygons()
@@ -132,15 +132,19 @@ class ScriptedRetriever(TensorDictModuleBase):
             approach, grasp = self._plans[key]
             e = _rot(np.array([x, y]) - grasp, -approach)
             dth = _wrap(approach - th)
+        inside = y + math.cos(th) * C.FINGER_LENGTH > _OUTSIDE_Y  # fingertips in the shelf
         if abs(e[0]) < self.lateral_tolerance and abs(dth) < math.radians(3):
             # lined up: advance onto the target, slowly over the last centimetres
             step_g = np.array([-e[0], -e[1] if -e[1] > 0.06 else min(-e[1], 0.025)])
-        elif abs(dth) > math.radians(8) and y + math.cos(th) * C.FINGER_LENGTH > 0.0:
-            return np.array([-1.0, 0.0, 0.0, -1.0])  # turning inside the shelf sweeps clutter: back out first
+        elif inside and (abs(e[0]) > 0.01 or abs(dth) > math.radians(3)):
+            # moving sideways or turning inside the shelf sweeps clutter: back out first
+            return np.array([-1.0, 0.0, 0.0, -1.0])
+        elif inside:
+            step_g = np.array([-e[0], 0.0])  # a small sideways correction
         else:
-            # line up behind the target first, backing off if too close to push it sideways
-            along = -e[1] - 0.05
-            step_g = np.array([-e[0], along if along > 0 else max(along, -C.MAX_FORWARD)])
+            # line up outside the shelf, at the entry of the approach corridor
+            entry = -_way_out(grasp, approach)
+            step_g = np.array([-e[0], entry - e[1]])
         return self._move(th, _rot(step_g, approach), dth, grip=-1.0)
 
     @staticmethod

@@ -35,7 +35,10 @@ STAGES: dict[int, dict[str, Any]] = {
 PLACEMENT_CLEARANCE = 0.005  # gap kept between sampled objects
 # Sampled objects keep this gap to the side and back walls: a finger (12 mm) fits beside them, so
 # every object is graspable from some side (paper Sec. III-C). Explicit scenes may go closer.
-WALL_CLEARANCE = 0.018
+WALL_CLEARANCE = 0.025
+# The target's centroid keeps this distance to the side walls, so that the open gripper (fingers
+# 5.45 cm either side of its axis) can straddle it straight on.
+TARGET_SIDE_CLEARANCE = 0.06
 # Likewise clutter is sampled at least this far from the target, so that the target starts
 # graspable (a finger fits between it and its neighbours). Pushing may bring them together later.
 TARGET_CLEARANCE = 0.015
@@ -311,9 +314,10 @@ def _place_objects(rng: np.random.Generator, n: int, target_y: tuple[float, floa
         mw = r + WALL_CLEARANCE
         ylo, yhi = (target_y if is_target else (0.0, C.SHELF_DEPTH))
         ylo, yhi = max(ylo, m), min(yhi, C.SHELF_DEPTH - mw)
+        xmax = C.SHELF_HALF_WIDTH - (max(mw, TARGET_SIDE_CLEARANCE) if is_target else mw)
         for _ in range(_MAX_PLACEMENT_TRIES):
             pose = (
-                float(rng.uniform(-C.SHELF_HALF_WIDTH + mw, C.SHELF_HALF_WIDTH - mw)),
+                float(rng.uniform(-xmax, xmax)),
                 float(rng.uniform(ylo, yhi)),
                 float(rng.uniform(-math.pi, math.pi)),
             )
