@@ -52,6 +52,8 @@ class PPOHeatmapLoss(ClipPPOLoss):
         heatmap_coeff: c3 (paper 1.0); ignored for a net without heat-map head.
         gamma: discount (paper 0.995).
         heatmap_fraction: share of frames whose heat-map is decoded for the loss (1.0 = all).
+        loss_critic_type: ``"smooth_l1"`` (default; returns reach -100, and an L2 value loss
+            would dominate the clipped gradient) or ``"l2"`` (the paper's squared error).
 
     The input tensordict has batch dims [B, T] (B sequences of T steps) and carries
     ``"advantage"`` and ``"value_target"`` (see :func:`compute_advantages`).
@@ -82,6 +84,7 @@ class PPOHeatmapLoss(ClipPPOLoss):
         gamma: float = C.GAMMA,
         normalize_advantage: bool = True,
         heatmap_fraction: float = 1.0,
+        loss_critic_type: str = "smooth_l1",
     ) -> None:
         super().__init__(
             actor_network=net.actor,
@@ -89,7 +92,7 @@ class PPOHeatmapLoss(ClipPPOLoss):
             clip_epsilon=clip_epsilon,
             entropy_coeff=entropy_coeff,
             critic_coeff=critic_coeff,
-            loss_critic_type="l2",
+            loss_critic_type=loss_critic_type,
             normalize_advantage=normalize_advantage,
         )
         self.gamma = gamma  # advantages are computed before the loss (compute_advantages)

@@ -264,7 +264,7 @@ class Trainer:
             td = self.net.trunk(td)
         terms = {"loss_imitation": imitation_nll(self.net, td, c.imitation_min_scale)}
         value = self.net.critic(td).get("state_value")
-        terms["loss_critic"] = c.critic_coeff * (value - td.get("value_target")).pow(2).mean()
+        terms["loss_critic"] = c.critic_coeff * torch.nn.functional.smooth_l1_loss(value, td.get("value_target"))
         if self.net.heatmap_head is not None and c.heatmap_coeff > 0:
             terms["loss_heatmap"] = c.heatmap_coeff * heatmap_loss(self.net.heatmap_head, td, c.heatmap_fraction)
         return terms
