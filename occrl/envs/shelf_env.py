@@ -34,6 +34,9 @@ def pad_polygon(vertices: np.ndarray, size: int = MAX_POLY_VERTICES) -> np.ndarr
     return out
 
 
+_WALLS_PADDED = np.stack([pad_polygon(w).astype(float) for w in _WALLS])
+
+
 class ShelfEnv(EnvBase):
     """Retrieve a target object from a cluttered shelf (Bejjani et al.), a batch of pymunk worlds.
 
@@ -265,27 +268,23 @@ class ShelfEnv(EnvBase):
             n = w.num_objects
             gp = w.gripper_pose()
             poses = w.object_poses()
-            polys = w.object_world_polygons()
-            f = visible_fractions(polys, gp, _WALLS)
+            f = visible_fractions(w.object_world_padded(poses), gp, _WALLS_PADDED)
             d = detect(f)
             gripper_pose[i] = gp
             opening[i, 0] = w.opening
             closed[i, 0] = w.closed
             t = w.target_index
             target_type[i, 0] = w.type_ids[t]
-            target_vertices[i] = pad_polygon(w.nominal_vertices[t])
-            target_nv[i, 0] = len(w.nominal_vertices[t])
+            target_vertices[i] = w.padded_vertices[t]
+            target_nv[i, 0] = w.num_vertices[t]
             present[i, :n] = True
             true_pose[i, :n] = poses
+            true_verts[i, :n] = w.padded_vertices
+            true_nv[i, :n] = w.num_vertices
             frac[i, :n] = f
-            for k in range(n):
-                pv = pad_polygon(w.nominal_vertices[k])
-                true_verts[i, k] = pv
-                true_nv[i, k] = len(w.nominal_vertices[k])
-                if d[k]:
-                    verts[i, k] = pv
-                    nverts[i, k] = true_nv[i, k]
             det[i, :n] = d
+            verts[i, :n] = np.where(d[:, None, None], w.padded_vertices, 0.0)
+            nverts[i, :n] = np.where(d, w.num_vertices, 0)
             type_id[i, :n] = np.where(d, w.type_ids, 0)
             pose[i, :n] = np.where(d[:, None], poses, 0.0)
             target_slot[i, 0] = t

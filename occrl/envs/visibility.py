@@ -93,7 +93,8 @@ def visible_fractions(
     """Fraction of each object's angular extent that the camera sees (0 to 1).
 
     Args:
-        object_polygons: shelf-frame CCW polygons of the objects.
+        object_polygons: shelf-frame CCW polygons of the objects (a list, or an already padded
+            (n, V, 2) array, in which case ``occluder_polygons`` must be padded to V too).
         gripper_pose: (x, y, theta); the camera is at its origin looking along its +y axis.
         occluder_polygons: extra polygons that hide but are not reported (shelf walls).
         fov: horizontal field of view in radians.
@@ -109,7 +110,10 @@ def visible_fractions(
     n = len(object_polygons)
     if n == 0:
         return np.zeros(0)
-    polys = _pad(list(object_polygons) + list(occluder_polygons))
+    if isinstance(object_polygons, np.ndarray) and isinstance(occluder_polygons, np.ndarray):
+        polys = np.concatenate([object_polygons, occluder_polygons])  # already padded alike
+    else:
+        polys = _pad(list(object_polygons) + list(occluder_polygons))
     cam = camera_pose(gripper_pose)
     lo, hi, inside = angular_extents(polys, cam)
     half = fov / 2

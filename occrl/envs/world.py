@@ -149,6 +149,12 @@ class ShelfWorld:
         self.target_index = next((i for i, o in enumerate(scene.objects) if o.is_target), -1)
         self.type_ids = np.array([o.type_id for o in scene.objects], dtype=np.int64)
         self.nominal_vertices = [np.asarray(o.vertices, dtype=float) for o in scene.objects]
+        # the same polygons padded to MAX_VERTICES by repeating the first vertex, for vectorised use
+        self.padded_vertices = np.zeros((self.num_objects, C.MAX_VERTICES, 2))
+        for i, v in enumerate(self.nominal_vertices):
+            self.padded_vertices[i, : len(v)] = v
+            self.padded_vertices[i, len(v):] = v[0]
+        self.num_vertices = np.array([len(v) for v in self.nominal_vertices], dtype=np.int64)
         self.object_radius = np.array([np.linalg.norm(v, axis=1).max() for v in self.nominal_vertices])
         self.opening = C.GRIPPER_STROKE
         self.closed = False
@@ -256,7 +262,15 @@ class ShelfWorld:
 
     def object_world_polygons(self) -> list[np.ndarray]:
         """Each object's nominal polygon (its type's shape) at its current pose."""
-        return [transform_points(v, p) for v, p in zip(self.nominal_vertices, self.object_poses())]
+        padded = self.object_world_padded()
+        return [padded[i, :n] for i, n in enumerate(self.num_vertices)]
+
+    def object_world_padded(self, poses: np.ndarray | None = None) -> np.ndarray:
+        """(n, MAX_VERTICES, 2) shelf-frame polygons, padded by repeating the first vertex."""
+        poses = self.object_poses() if poses is None else poses
+        c, s = np.cos(poses[:, 2])[:, None], np.sin(poses[:, 2])[:, None]
+        v = self.padded_vertices
+        return np.stack([c * v[..., 0] - s * v[..., 1] + poses[:, 0, None], s * v[..., 0] + c * v[..., 1] + poses[:, 1, None]], -1)
 
     def set_gripper_state(self, opening: float, closed: bool, held: int | None) -> None:
         """Set the gripper of a recreated state (planning): opening, last command, held object."""
@@ -318,7 +332,9 @@ class ShelfWorld:
         for _ in range(C.PHYSICS_SUBSTEPS):
             self.space.step(dt)
         # Quasi-static: everything comes to rest between actions.
-        self._set_poses(self.gripper_pose(), self.object_poses())
+        for body in (self.control, self.gripper, *self.bodies):
+            body.velocity = (0.0, 0.0)
+            body.angular_velocity = 0.0
         return self._outcome()
 
     def _outcome(self) -> StepOutcome:
