@@ -101,6 +101,22 @@ def _eval(args: argparse.Namespace) -> int:
     from occrl.eval.methods import _HYBRID, METHODS
     from occrl.eval.runner import run_tasks, summarize
 
+    if args.sweep:
+        from occrl.eval.sweep import run_sweep
+
+        methods = args.methods.split(",") if args.methods else METHODS[:-1]
+        unknown = [m for m in methods if m not in METHODS]
+        if unknown:
+            print(f"unknown method(s) {unknown}; available: {METHODS}", file=sys.stderr)
+            return 2
+        out = run_sweep(methods, args.out or "occrl-sweep", args.tasks, args.seed, batch=args.batch, workers=args.workers,
+                        weights=args.weights, progress=not args.no_progress)
+        print(f"wrote {out / 'results.csv'}, {out / 'results.json'}, {out / 'sweep.png'}")
+        return 0
+    if not args.method:
+        print("give --method (or --sweep)", file=sys.stderr)
+        return 2
+
     if args.method not in METHODS:
         print(f"unknown method {args.method!r}; available: {METHODS}", file=sys.stderr)
         return 2
@@ -181,11 +197,13 @@ def main(argv: list[str] | None = None) -> int:
     t.set_defaults(func=_train)
 
     e = sub.add_parser("eval", help="run a method on fixed task seeds and report success, actions, time")
-    e.add_argument("--method", required=True, help="hybrid-2x2, hybrid-4x4, hybrid-6x6, hybrid-lim-4x4, greedy, stochastic, stochastic-gen, scripted")
+    e.add_argument("--method", help="hybrid-2x2, hybrid-4x4, hybrid-6x6, hybrid-lim-4x4, greedy, stochastic, stochastic-gen, scripted")
+    e.add_argument("--sweep", action="store_true", help="the papers' clutter and noise sweeps (resumable; --out is a folder)")
+    e.add_argument("--methods", default=None, help="comma-separated methods for --sweep (default: all but scripted)")
     e.add_argument("--stage", type=int, default=1, choices=[1, 2, 3])
     e.add_argument("--objects", type=int, default=None, help="fixed number of objects (clutter sweep)")
     e.add_argument("--noise", type=float, default=0.0)
-    e.add_argument("--tasks", type=int, default=200)
+    e.add_argument("--tasks", type=int, default=200, help="tasks per point (the paper uses 300 for sweeps)")
     e.add_argument("--seed", type=int, default=10_000_000, help="first task seed (held-out range by default)")
     e.add_argument("--batch", type=int, default=16, help="worlds stepped together (policies; planners use 1)")
     e.add_argument("--workers", type=int, default=1, help="processes to spread tasks over")

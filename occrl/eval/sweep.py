@@ -1,0 +1,146 @@
+"""The papers' simulation study (Sec. VI-C): every method over clutter density and noise level.
+
+Two sweeps, the same task seeds for every method:
+
+* clutter: 1 to 10 objects, noise 0;
+* noise: 0.0 to 0.25 by 0.05, with a random number of objects (1 to 10, drawn from the task seed).
+
+Each finished point (method, sweep, value) is cached as JSON under ``out/points/``, so an
+interrupted sweep resumes where it stopped. ``summarize_sweep`` writes ``results.csv`` and
+``results.json``; ``plot_sweep`` draws the paper's Fig. 5 layout (success, time and actions per
+task against clutter and against noise, one line per method).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import logging
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from occrl.envs.scene import Scene
+from occrl.eval.runner import EVAL_SEED_BASE, EpisodeResult, run_tasks, summarize
+
+__all__ = ["SWEEPS", "run_sweep", "summarize_sweep", "plot_sweep", "noise_sweep_objects"]
+
+logger = logging.getLogger(__name__)
+
+SWEEPS = {
+    "clutter": [float(n) for n in range(1, 11)],
+    "noise": [0.0, 0.05, 0.1, 0.15, 0.2, 0.25],
+}
+SCENE_STAGE = 2  # uniform target placement
+
+
+def noise_sweep_objects(seed: int) -> int:
+    """Number of objects of a noise-sweep task (1 to 10, fixed by the task seed)."""
+    return int(np.random.default_rng([int(seed), 7]).integers(1, 11))
+
+
+def _point_path(out: Path, method: str, sweep: str, value: float) -> Path:
+    return out / "points" / f"{method}__{sweep}__{value:g}.json"
+
+
+def _run_point(method: str, sweep: str, value: float, seeds: list[int], batch: int, workers: int, weights, progress: bool) -> list[EpisodeResult]:
+    if sweep == "clutter":
+        return run_tasks(method, SCENE_STAGE, seeds, 0.0, int(value), batch, workers, weights, progress)
+    # noise sweep: a random object count per task; group tasks by count so scenes are sampled alike
+    results: dict[int, EpisodeResult] = {}
+    by_count: dict[int, list[int]] = {}
+    for s in seeds:
+        by_count.setdefault(noise_sweep_objects(s), []).append(s)
+    for count, group in sorted(by_count.items()):
+        for r in run_tasks(method, SCENE_STAGE, group, value, count, batch, workers, weights, progress):
+            results[r.seed] = r
+    return [results[s] for s in seeds]
+
+
+def run_sweep(
+    methods: Sequence[str],
+    out: str | Path,
+    tasks: int = 300,
+    first_seed: int = EVAL_SEED_BASE,
+    sweeps: Sequence[str] = ("clutter", "noise"),
+    values: dict | None = None,
+    batch: int = 16,
+    workers: int = 1,
+    weights=None,
+    progress: bool = True,
+) -> Path:
+    """Run (or resume) the sweep; returns the output folder."""
+    from occrl.eval.methods import _HYBRID
+
+    out = Path(out)
+    (out / "points").mkdir(parents=True, exist_ok=True)
+    seeds = list(range(first_seed, first_seed + tasks))
+    for sweep in sweeps:
+        for value in (values or SWEEPS)[sweep]:
+            for method in methods:
+                path = _point_path(out, method, sweep, value)
+                if path.exists():
+                    continue
+                b = 1 if method in _HYBRID else batch
+                results = _run_point(method, sweep, value, seeds, b, workers, weights, progress)
+                point = {"method": method, "sweep": sweep, "value": value, **summarize(results), "episodes": [r.to_dict() for r in results]}
+                tmp = path.with_suffix(".tmp")
+                tmp.write_text(json.dumps(point))
+                tmp.replace(path)
+                logger.info("%s %s=%g: success %.2f", method, sweep, value, point["success_rate"])
+    summarize_sweep(out)
+    plot_sweep(out)
+    return out
+
+
+def _points(out: Path) -> list[dict]:
+    return [json.loads(p.read_text()) for p in sorted((out / "points").glob("*.json"))]
+
+
+def summarize_sweep(out: str | Path) -> list[dict]:
+    out = Path(out)
+    rows = []
+    for p in _points(out):
+        rows.append({k: p[k] for k in ("method", "sweep", "value", "tasks", "successes", "success_rate", "dropped", "mean_actions", "mean_seconds")}
+                    | {"ci95_low": p["success_ci95"][0], "ci95_high": p["success_ci95"][1]})
+    rows.sort(key=lambda r: (r["sweep"], r["method"], r["value"]))
+    (out / "results.json").write_text(json.dumps(rows, indent=2))
+    if rows:
+        with open(out / "results.csv", "w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=list(rows[0]))
+            w.writeheader()
+            w.writerows(rows)
+    return rows
+
+
+def plot_sweep(out: str | Path) -> Path:
+    """Fig. 5 layout: columns success rate, time per task, actions per task; rows clutter, noise."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out = Path(out)
+    rows = summarize_sweep(out)
+    fig, axes = plt.subplots(2, 3, figsize=(13, 7))
+    for i, sweep in enumerate(("clutter", "noise")):
+        for method in sorted({r["method"] for r in rows if r["sweep"] == sweep}):
+            pts = sorted((r for r in rows if r["sweep"] == sweep and r["method"] == method), key=lambda r: r["value"])
+            x = [r["value"] for r in pts]
+            y = np.array([r["success_rate"] for r in pts])
+            err = np.array([[r["success_rate"] - r["ci95_low"], r["ci95_high"] - r["success_rate"]] for r in pts]).T
+            axes[i, 0].errorbar(x, y, yerr=err, marker="o", capsize=3, label=method)
+            axes[i, 1].plot(x, [r["mean_seconds"] for r in pts], marker="o", label=method)
+            axes[i, 2].plot(x, [r["mean_actions"] for r in pts], marker="o", label=method)
+        xlabel = "number of objects" if sweep == "clutter" else "noise level"
+        for ax, ylabel in zip(axes[i], ("success rate", "time per task (s)", "actions per task")):
+            ax.set_xlabel(xlabel)
+            ax.set_ylabel(ylabel)
+            ax.grid(alpha=0.3)
+    axes[0, 0].legend(fontsize=8)
+    fig.tight_layout()
+    path = out / "sweep.png"
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path

@@ -1,0 +1,39 @@
+import json
+
+from occrl.eval.runner import run_tasks, summarize, wilson_interval
+from occrl.eval.sweep import noise_sweep_objects, run_sweep
+
+
+def test_tiny_sweep_writes_points_table_and_figure_and_resumes(tmp_path):
+    values = {"clutter": [1.0, 2.0], "noise": [0.0, 0.1]}
+    out = run_sweep(["scripted"], tmp_path, tasks=3, first_seed=123, values=values, batch=3, progress=False)
+    points = sorted((out / "points").glob("*.json"))
+    assert len(points) == 4
+    rows = json.loads((out / "results.json").read_text())
+    assert {(r["sweep"], r["value"]) for r in rows} == {("clutter", 1.0), ("clutter", 2.0), ("noise", 0.0), ("noise", 0.1)}
+    assert (out / "results.csv").exists() and (out / "sweep.png").stat().st_size > 1000
+    clutter1 = json.loads((out / "points" / "scripted__clutter__1.json").read_text())
+    assert all(e["objects"] == 1 for e in clutter1["episodes"])
+    stamps = {p: p.stat().st_mtime_ns for p in points}
+    run_sweep(["scripted"], tmp_path, tasks=3, first_seed=123, values=values, batch=3, progress=False)
+    assert all(p.stat().st_mtime_ns == stamps[p] for p in points)  # cached points are not recomputed
+
+
+def test_noise_sweep_object_counts_are_fixed_by_seed_and_cover_1_to_10():
+    counts = [noise_sweep_objects(s) for s in range(300)]
+    assert counts == [noise_sweep_objects(s) for s in range(300)]
+    assert set(counts) == set(range(1, 11))
+
+
+def test_results_do_not_depend_on_the_number_of_workers():
+    seeds = list(range(40, 46))
+    one = run_tasks("scripted", 1, seeds, batch=3, workers=1, progress=False)
+    two = run_tasks("scripted", 1, seeds, batch=3, workers=2, progress=False)
+    assert [(r.seed, r.success, r.actions) for r in one] == [(r.seed, r.success, r.actions) for r in two]
+
+
+def test_wilson_interval():
+    lo, hi = wilson_interval(45, 50)
+    assert lo < 0.9 < hi and 0 <= lo and hi <= 1
+    assert wilson_interval(0, 0) == (0.0, 1.0)
+    assert summarize([])["tasks"] == 0
