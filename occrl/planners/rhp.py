@@ -104,9 +104,12 @@ def rhp_batched(
     stepper = NetworkStepper(net)
     worlds = [make_world(root) for root in roots for _ in range(m)]
     n = len(worlds)
-    h = hidden[0].expand(n, *hidden[0].shape[1:]).contiguous()
-    c = hidden[1].expand(n, *hidden[1].shape[1:]).contiguous()
-    td, h, c = stepper.step(render_pixels(worlds), h, c)
+    # the m roll-outs of a root start from the same state: render and encode it once per root
+    h0 = hidden[0].expand(R, *hidden[0].shape[1:]).contiguous()
+    c0 = hidden[1].expand(R, *hidden[1].shape[1:]).contiguous()
+    td, h, c = stepper.step(render_pixels(worlds[::m]), h0, c0)
+    td = td.select("belief", "loc", "scale").repeat_interleave(m, dim=0)
+    h, c = h.repeat_interleave(m, dim=0), c.repeat_interleave(m, dim=0)
     eps = noise.reshape(n, depth, 4)
     ret = np.zeros(n)
     alive = np.ones(n, dtype=bool)
