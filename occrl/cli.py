@@ -1,4 +1,4 @@
-"""Command line: ``occrl demo | train | eval | bench``.
+"""Command line: ``occrl demo | train | eval | export | bench``.
 
 ``occrl demo`` runs the hybrid planner with the shipped network on a few random shelves and writes
 a summary and a GIF (the privileged scripted retriever when no network is shipped).
@@ -153,6 +153,44 @@ def network_of(method: str) -> str | None:
     return "occnet-noheatmap" if method in ("greedy", "stochastic") else "occnet"
 
 
+def _export(args: argparse.Namespace) -> int:
+    """Ship a run's weights inside the package as a named pretrained network."""
+    import shutil
+
+    from occrl.pretrained import _DIR, _FILES
+    from occrl.training.checkpoint import load_weights, save_weights
+    from occrl.training.plots import read_metrics
+
+    if args.name not in _FILES:
+        print(f"name must be one of {sorted(_FILES)}", file=sys.stderr)
+        return 2
+    run = Path(args.run_dir)
+    net = load_weights(run / "weights.pt")
+    rows = read_metrics(run / "metrics.jsonl")
+    last = rows[-1]
+    card = {
+        "train_preset": args.preset,
+        "seed": args.seed,
+        "iterations": last["iteration"],
+        "frames": last["frames"],
+        "cpu_hours": round(last["train_hours"] * 2, 2),  # wall hours x 2 cores
+        "wall_hours": round(last["train_hours"], 2),
+        "stage_reached": max(r["stage"] for r in rows),
+        "phase": last["phase"],
+        "summary": f"{args.name}: preset {args.preset}, {last['frames']:,} frames, stage {max(r['stage'] for r in rows)}, {last['phase']} phase",
+    }
+    save_weights(_DIR / _FILES[args.name], net, card)
+    cards_path = _DIR / "model_cards.json"
+    cards = json.loads(cards_path.read_text()) if cards_path.exists() else {}
+    cards[args.name] = card
+    cards_path.write_text(json.dumps(cards, indent=2))
+    docs = Path(__file__).resolve().parent.parent / "docs"
+    if docs.exists() and (run / "learning_curves.png").exists():
+        shutil.copy(run / "learning_curves.png", docs / f"learning_curves_{args.name}.png")
+    print(json.dumps(card, indent=2))
+    return 0
+
+
 def _bench(args: argparse.Namespace) -> int:
     import runpy
 
@@ -211,6 +249,13 @@ def main(argv: list[str] | None = None) -> int:
     e.add_argument("--out", default=None, help="write the results as JSON")
     e.add_argument("--no-progress", action="store_true")
     e.set_defaults(func=_eval)
+
+    x = sub.add_parser("export", help="ship a training run's weights in the package (occrl.load_pretrained)")
+    x.add_argument("--run-dir", required=True)
+    x.add_argument("--name", required=True, help="occnet or occnet-noheatmap")
+    x.add_argument("--preset", required=True, help="the training preset the run used")
+    x.add_argument("--seed", type=int, default=0)
+    x.set_defaults(func=_export)
 
     b = sub.add_parser("bench", help="run a speed benchmark from benchmarks/")
     b.add_argument("name", help="e.g. env_throughput")
