@@ -27,8 +27,7 @@ from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
 
 from occrl.envs import world_constants as C
-from occrl.envs.geometry import convex_hull, polygons_overlap, transform_points
-from occrl.envs.perception import _world_vertices
+from occrl.envs.geometry import convex_hull, polygons_overlap, transform_points, transform_polygons
 from occrl.envs.world import grasp_candidate, gripper_polygons, wall_polygons
 
 __all__ = ["ScriptedRetriever"]
@@ -88,7 +87,7 @@ class ScriptedRetriever(TensorDictModuleBase):
         priv = flat.get("privileged")
         present = priv.get("object_present").cpu().numpy()
         poses = priv.get("object_pose").cpu().numpy().astype(float)
-        world = _world_vertices(priv.get("object_vertices").cpu().numpy().astype(float), poses)
+        world = transform_polygons(priv.get("object_vertices").cpu().numpy().astype(float), poses)
         nv = priv.get("object_num_vertices").cpu().numpy()
         slot = priv.get("target_slot").cpu().numpy().reshape(-1)
         held = priv.get("target_held").cpu().numpy().reshape(-1)

@@ -17,6 +17,7 @@ __all__ = [
     "is_convex_ccw",
     "min_width",
     "transform_points",
+    "transform_polygons",
     "polygons_overlap",
     "point_in_convex_polygon",
 ]
@@ -94,6 +95,16 @@ def transform_points(points: np.ndarray, pose) -> np.ndarray:
     out[..., 0] = c * p[..., 0] - s * p[..., 1] + x
     out[..., 1] = s * p[..., 0] + c * p[..., 1] + y
     return out
+
+
+def transform_polygons(vertices: np.ndarray, poses: np.ndarray) -> np.ndarray:
+    """Batched :func:`transform_points`: vertices (..., V, 2) in their objects' frames, poses
+    (..., 3) -> (..., V, 2) in the frame the poses are given in."""
+    poses = np.asarray(poses, dtype=float)
+    c, s = np.cos(poses[..., 2])[..., None], np.sin(poses[..., 2])[..., None]
+    x = c * vertices[..., 0] - s * vertices[..., 1] + poses[..., 0, None]
+    y = s * vertices[..., 0] + c * vertices[..., 1] + poses[..., 1, None]
+    return np.stack([x, y], -1)
 
 
 def _separated_along_edges(a: np.ndarray, b: np.ndarray, gap: float) -> bool:

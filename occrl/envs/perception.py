@@ -12,15 +12,10 @@ import numpy as np
 import torch
 from tensordict import TensorDict, TensorDictBase
 
+from occrl.envs.geometry import transform_polygons
+
 
 __all__ = ["detected_polygons", "observation_from_detections"]
-
-
-def _world_vertices(vertices: np.ndarray, poses: np.ndarray) -> np.ndarray:
-    c, s = np.cos(poses[..., 2])[..., None], np.sin(poses[..., 2])[..., None]
-    x = c * vertices[..., 0] - s * vertices[..., 1] + poses[..., 0, None]
-    y = s * vertices[..., 0] + c * vertices[..., 1] + poses[..., 1, None]
-    return np.stack([x, y], -1)
 
 
 def detected_polygons(obs: TensorDictBase) -> list[tuple[list[np.ndarray], list[bool]]]:
@@ -34,7 +29,7 @@ def detected_polygons(obs: TensorDictBase) -> list[tuple[list[np.ndarray], list[
     nv = obs.get(("objects", "num_vertices")).cpu().numpy()
     type_id = obs.get(("objects", "type_id")).cpu().numpy()
     target_type = obs.get("target_type").cpu().numpy().reshape(-1)
-    world = _world_vertices(verts, poses)
+    world = transform_polygons(verts, poses)
     out = []
     for b in range(det.shape[0]):
         idx = np.flatnonzero(det[b])

@@ -15,8 +15,8 @@ from torchrl.data import Bounded, Composite
 from torchrl.envs.transforms import Transform
 
 from occrl.envs import world_constants as C
-from occrl.envs.geometry import point_in_convex_polygon
-from occrl.envs.perception import _world_vertices, detected_polygons
+from occrl.envs.geometry import point_in_convex_polygon, transform_polygons
+from occrl.envs.perception import detected_polygons
 from occrl.envs.render import DEFAULT_CANVAS, LABELS, PALETTE, Canvas, render_labels
 from occrl.envs.robot_frame import DEFAULT_FORWARD_OFFSET, DEFAULT_SIZE, DEFAULT_WINDOW, robot_centric_pixels, robot_centric_points
 
@@ -188,7 +188,7 @@ class HeatmapTarget(_ObservationWriter):
         ar = np.arange(len(slot))
         verts = priv.get("object_vertices").cpu().numpy()[ar, slot].astype(np.float64)
         nv = priv.get("object_num_vertices").cpu().numpy()[ar, slot]
-        world = _world_vertices(verts, priv.get("target_pose").cpu().numpy().astype(np.float64))
+        world = transform_polygons(verts, priv.get("target_pose").cpu().numpy().astype(np.float64))
         pix = robot_centric_pixels(world, gp, self.window, self.size, self.forward_offset)
         heat = np.zeros((len(slot), 1, self.size, self.size), np.float32)
         for b in range(len(slot)):

@@ -37,7 +37,7 @@ import pymunk
 from pymunk._chipmunk_cffi import lib as _cp
 
 from occrl.envs import world_constants as C
-from occrl.envs.geometry import convex_hull, polygon_area, polygons_overlap, transform_points
+from occrl.envs.geometry import convex_hull, polygon_area, polygons_overlap, transform_points, transform_polygons
 from occrl.envs.scene import Scene
 
 __all__ = ["ShelfWorld", "StepOutcome", "gripper_polygons", "wall_polygons", "inverse_pose", "grasp_candidate"]
@@ -267,10 +267,7 @@ class ShelfWorld:
 
     def object_world_padded(self, poses: np.ndarray | None = None) -> np.ndarray:
         """(n, MAX_VERTICES, 2) shelf-frame polygons, padded by repeating the first vertex."""
-        poses = self.object_poses() if poses is None else poses
-        c, s = np.cos(poses[:, 2])[:, None], np.sin(poses[:, 2])[:, None]
-        v = self.padded_vertices
-        return np.stack([c * v[..., 0] - s * v[..., 1] + poses[:, 0, None], s * v[..., 0] + c * v[..., 1] + poses[:, 1, None]], -1)
+        return transform_polygons(self.padded_vertices, self.object_poses() if poses is None else poses)
 
     def set_gripper_state(self, opening: float, closed: bool, held: int | None) -> None:
         """Set the gripper of a recreated state (planning): opening, last command, held object."""

@@ -14,7 +14,7 @@ import numpy as np
 from PIL import Image, ImageDraw
 from tensordict import TensorDictBase
 
-from occrl.envs.perception import _world_vertices
+from occrl.envs.geometry import transform_polygons
 from occrl.envs.render import SHELF_VIEW, labels_to_rgb, render_true_scene
 
 __all__ = ["episode_frames", "frame", "save_gif", "save_film_strip"]
@@ -31,7 +31,7 @@ def _true_panel(step: TensorDictBase) -> np.ndarray:
     poses = priv.get("object_pose").numpy().astype(float)
     nv = priv.get("object_num_vertices").numpy()
     slot = int(priv.get("target_slot").reshape(-1)[0])
-    world = _world_vertices(verts, poses)
+    world = transform_polygons(verts, poses)
     idx = np.flatnonzero(present)
     labels = render_true_scene(
         step.get("gripper_pose").numpy().astype(float),
