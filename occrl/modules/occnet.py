@@ -108,6 +108,8 @@ def make_occnet(preset: str | OccNetConfig = "paper", heatmap: bool = True, **ov
     """Build the network of a named preset (``"paper"``) or a given config.
 
     ``heatmap=False`` builds the net without the heat-map head (greedy/stochastic baselines).
+    The net is returned in eval mode: batch norm uses running statistics everywhere (collection,
+    planning and the loss), and the trainer refreshes them explicitly (docs/decisions.md).
 
     Examples:
         >>> import torch
@@ -127,4 +129,4 @@ def make_occnet(preset: str | OccNetConfig = "paper", heatmap: bool = True, **ov
         raise ValueError(f"unknown preset {preset!r}; available: {sorted(PRESETS)}")
     fields = {**config.to_dict(), "heatmap": heatmap, **overrides}
     fields = {k: tuple(v) if isinstance(v, list) else v for k, v in fields.items()}
-    return OccNet(OccNetConfig(**fields))
+    return OccNet(OccNetConfig(**fields)).eval()
