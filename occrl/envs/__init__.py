@@ -21,4 +21,14 @@ __all__ = [
     "observation_transforms",
     "detected_polygons",
     "observation_from_detections",
+    "MujocoShelfEnv",
 ]
+
+
+def __getattr__(name: str):
+    # MuJoCo is an optional extra: import its env only when it is asked for.
+    if name == "MujocoShelfEnv":
+        from occrl.envs.mujoco_env import MujocoShelfEnv
+
+        return MujocoShelfEnv
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -51,7 +51,8 @@ def make_env(
         stage, noise, seed, scenes, num_objects, max_steps: see :class:`~occrl.envs.ShelfEnv`.
         window, size, forward_offset: the robot-centric window (metres, pixels, metres).
         heatmap_target: also render ``("privileged", "heatmap_target")`` for training.
-        backend: ``"pymunk"`` (the 2D world).
+        backend: ``"pymunk"`` (the 2D world) or ``"mujoco"`` (:class:`~occrl.envs.MujocoShelfEnv`, the
+            3D execution env with its default visibility ``"auto"``; needs ``pip install -e ".[mujoco]"``).
 
     Examples:
         >>> from occrl.envs import make_env
@@ -60,9 +61,15 @@ def make_env(
         >>> td["pixels"].shape, float(td["pixels"].max()) <= 1.0
         (torch.Size([4, 3, 64, 64]), True)
     """
-    if backend != "pymunk":
-        raise ValueError(f"backend must be 'pymunk', got {backend!r}")
-    base = ShelfEnv(
+    if backend == "pymunk":
+        env_cls = ShelfEnv
+    elif backend == "mujoco":
+        from occrl.envs.mujoco_env import MujocoShelfEnv  # optional extra: imported only when asked for
+
+        env_cls = MujocoShelfEnv
+    else:
+        raise ValueError(f"backend must be 'pymunk' or 'mujoco', got {backend!r}")
+    base = env_cls(
         batch_size=batch_size, stage=stage, noise=noise, seed=seed, scenes=scenes, num_objects=num_objects, max_steps=max_steps
     )
     transforms = [InitTracker(), StepCounter()]
