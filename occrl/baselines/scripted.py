@@ -69,7 +69,7 @@ class ScriptedRetriever(TensorDictModuleBase):
     in_keys = ["gripper_pose", "gripper_opening", "gripper_closed", "privileged"]
     out_keys = ["action"]
 
-    def __init__(self, lateral_tolerance: float = 0.002) -> None:
+    def __init__(self, lateral_tolerance: float = 0.006) -> None:
         super().__init__()
         self.lateral_tolerance = lateral_tolerance
         self._plans: dict[bytes, tuple[float, np.ndarray]] = {}  # grasp plans by target pose
