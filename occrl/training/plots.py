@@ -11,8 +11,15 @@ __all__ = ["plot_learning_curves", "read_metrics"]
 
 
 def read_metrics(path: str | Path) -> list[dict]:
+    """Rows by iteration; when a run was resumed from an older checkpoint, the rows written
+    after the checkpoint and before the stop are superseded by the resumed ones (last wins)."""
+    by_iter: dict[int, dict] = {}
     with open(path) as f:
-        return [json.loads(line) for line in f if line.strip()]
+        for line in f:
+            if line.strip():
+                row = json.loads(line)
+                by_iter[row["iteration"]] = row
+    return [by_iter[k] for k in sorted(by_iter)]
 
 
 def _smooth(y: np.ndarray, k: int = 10) -> np.ndarray:

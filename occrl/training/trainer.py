@@ -127,6 +127,7 @@ class Trainer:
                 else:
                     logger.warning("no %s next to the checkpoint: the DAgger data set restarts empty (resume not exact)", DAGGER_DATA)
             logger.info("resumed %s at iteration %d (stage %d, %d frames)", ckpt, self.iteration, self.curriculum.stage, self.frames)
+            self._truncate_metrics()
         self._collector = None
         self._collector_stage = None
         self._loggers = self._make_loggers(tensorboard)
@@ -332,6 +333,13 @@ class Trainer:
                 bar.close()
             self.save()
         return summary
+
+    def _truncate_metrics(self) -> None:
+        """Drop metric rows written after the checkpoint we resumed from (they will be redone)."""
+        path = self.run_dir / METRICS
+        if path.exists():
+            rows = [line for line in path.read_text().splitlines() if line.strip() and json.loads(line)["iteration"] <= self.iteration]
+            path.write_text("".join(r + "\n" for r in rows))
 
     def _log(self, summary: dict) -> None:
         with open(self.run_dir / METRICS, "a") as f:
