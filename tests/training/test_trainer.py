@@ -82,3 +82,16 @@ def test_curriculum_promotes_only_above_threshold_over_a_full_window():
     assert c2.record([True] * 10) and c2.stage == 2
     c3 = Curriculum(stage=3, threshold=0.8, window=2)
     assert not c3.record([True, True]) and c3.stage == 3
+
+
+def test_resume_from_an_older_checkpoint_supersedes_later_metric_rows(tmp_path):
+    cfg = get_train_config("tiny")
+    tr = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False, checkpoint_every_s=1e9)
+    tr.train(iterations=1)  # checkpoint written at the end of train()
+    tr._log({"iteration": 2, "frames": 0})  # a row written after the checkpoint, then a crash
+    tr.close()
+    again = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False)
+    again.train(iterations=2)
+    again.close()
+    iterations = [json.loads(l)["iteration"] for l in (tmp_path / "metrics.jsonl").read_text().splitlines()]
+    assert iterations == [1, 2]
