@@ -98,7 +98,7 @@ def _train(args: argparse.Namespace) -> int:
 
 
 def _eval(args: argparse.Namespace) -> int:
-    from occrl.eval.methods import _HYBRID, METHODS
+    from occrl.eval.methods import METHODS, PLANNERS
     from occrl.eval.runner import run_tasks, summarize
 
     if args.sweep:
@@ -121,7 +121,7 @@ def _eval(args: argparse.Namespace) -> int:
         print(f"unknown method {args.method!r}; available: {METHODS}", file=sys.stderr)
         return 2
     seeds = list(range(args.seed, args.seed + args.tasks))
-    batch = 1 if args.method in _HYBRID else args.batch  # planners: one world per task, exact per-task time
+    batch = 1 if args.method in PLANNERS else args.batch  # planners: one world per task, exact per-task time
     results = run_tasks(args.method, args.stage, seeds, args.noise, args.objects, batch, args.workers, args.weights, not args.no_progress)
     summary = {
         "method": args.method,

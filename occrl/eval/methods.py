@@ -10,7 +10,9 @@ from torchrl.envs.utils import ExplorationType
 
 __all__ = ["Method", "make_method", "METHODS"]
 
-METHODS = ["hybrid-2x2", "hybrid-4x4", "hybrid-6x6", "hybrid-lim-4x4", "greedy", "stochastic", "stochastic-gen", "scripted"]
+METHODS = ["hybrid-2x2", "hybrid-4x4", "hybrid-6x6", "hybrid-lim-4x4", "greedy", "stochastic", "stochastic-gen", "hierarchical", "scripted"]
+# planners run one world per task (their per-task planning time is measured exactly)
+PLANNERS = {"hybrid-2x2", "hybrid-4x4", "hybrid-6x6", "hybrid-lim-4x4", "hierarchical"}
 _HYBRID = {"hybrid-2x2": (2, 2, False), "hybrid-4x4": (4, 4, False), "hybrid-6x6": (6, 6, False), "hybrid-lim-4x4": (4, 4, True)}
 
 
@@ -33,13 +35,18 @@ def _net(name: str, weights: str | Path | None):
 def make_method(name: str, weights: str | Path | None = None, seed: int = 0) -> Method:
     """``hybrid-MxH`` / ``hybrid-lim-4x4`` (planner on the full net), ``greedy`` / ``stochastic``
     (net without heat-map head: mean / sampled action), ``stochastic-gen`` (full net, sampled),
-    ``scripted`` (privileged). ``weights`` overrides the shipped net."""
+    ``hierarchical`` (Alg. 3 with OMPL; literal Search), ``scripted`` (privileged). ``weights``
+    overrides the shipped net."""
     if name in _HYBRID:
         from occrl.planners import HybridPlanner
 
         m, h, limited = _HYBRID[name]
         net = _net("occnet", weights)
         return Method(name, HybridPlanner(net, m=m, h=h, limited=limited, seed=seed), [net.make_primer()], network=str(weights or "occnet"))
+    if name == "hierarchical":
+        from occrl.baselines.hierarchical import HierarchicalPlanner
+
+        return Method(name, HierarchicalPlanner(seed=seed))
     if name == "scripted":
         from occrl.baselines import ScriptedRetriever
 

@@ -71,7 +71,7 @@ def run_sweep(
     progress: bool = True,
 ) -> Path:
     """Run (or resume) the sweep; returns the output folder."""
-    from occrl.eval.methods import _HYBRID
+    from occrl.eval.methods import PLANNERS
 
     out = Path(out)
     (out / "points").mkdir(parents=True, exist_ok=True)
@@ -82,7 +82,7 @@ def run_sweep(
                 path = _point_path(out, method, sweep, value)
                 if path.exists():
                     continue
-                b = 1 if method in _HYBRID else batch
+                b = 1 if method in PLANNERS else batch
                 results = _run_point(method, sweep, value, seeds, b, workers, weights, progress)
                 point = {"method": method, "sweep": sweep, "value": value, **summarize(results), "episodes": [r.to_dict() for r in results]}
                 tmp = path.with_suffix(".tmp")
