@@ -1,5 +1,14 @@
-"""Baseline policies: the privileged scripted retriever (more arrive with the planner issues)."""
+"""Baselines: the privileged scripted retriever and the hierarchical OMPL planner (paper Alg. 3)."""
 
 from occrl.baselines.scripted import ScriptedRetriever
 
-__all__ = ["ScriptedRetriever"]
+__all__ = ["ScriptedRetriever", "HierarchicalPlanner"]
+
+
+def __getattr__(name: str):
+    # OMPL is an optional extra: import the hierarchical planner only when it is asked for.
+    if name == "HierarchicalPlanner":
+        from occrl.baselines.hierarchical import HierarchicalPlanner
+
+        return HierarchicalPlanner
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
