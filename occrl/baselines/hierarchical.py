@@ -191,6 +191,10 @@ class HierarchicalPlanner(TensorDictModuleBase):
         seed: int = 0,
     ) -> None:
         super().__init__()
+        from occrl.baselines.kinodynamic import oc
+
+        if oc is None:
+            raise ImportError('the hierarchical planner needs OMPL 2.x: pip install -e ".[ompl]"')
         if planner not in ("rrt", "kpiece"):
             raise ValueError(f"planner must be 'rrt' or 'kpiece', got {planner!r}")
         if plan_seconds <= 0:

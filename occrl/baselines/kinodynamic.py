@@ -387,7 +387,7 @@ class SimControlProblem:
         forbidden: "HidingRegion | None" = None,
     ):
         if ob is None:  # pragma: no cover
-            raise ImportError("the hierarchical planner needs OMPL 2.x (import ompl failed)")
+            raise ImportError('the hierarchical planner needs OMPL 2.x: pip install -e ".[ompl]"')
         if planner not in ("rrt", "kpiece"):
             raise ValueError(f"planner must be 'rrt' or 'kpiece', got {planner!r}")
         self.world = world
