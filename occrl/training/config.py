@@ -41,7 +41,8 @@ class TrainConfig:
     gae_lambda: float = 0.95
     # imitation warm start (DAgger on the privileged scripted retriever); 0 = PPO from scratch
     imitation_iters: int = 0
-    imitation_beta_iters: int = 10  # expert acts with probability decaying 1 -> 0 over these
+    imitation_beta_iters: int = 10  # expert acts with probability decaying 1 -> beta_min over these
+    imitation_beta_min: float = 0.0  # the expert keeps acting this often during the warm start
     imitation_min_scale: float = 0.1
     imitation_buffer_iters: int = 8  # DAgger aggregates the labelled data of this many iterations
     imitation_updates: int = 0  # gradient steps per iteration on the aggregate (0 = epochs over the new batch)
@@ -82,6 +83,9 @@ TRAIN_PRESETS: dict[str, TrainConfig] = {
         collector="multi",
         num_envs=32,
         imitation_iters=400,
+        imitation_beta_iters=50,
+        imitation_beta_min=0.3,
+        imitation_buffer_iters=16,
         imitation_updates=16,
         heatmap_fraction=0.25,
         batch_norm_frames=400,

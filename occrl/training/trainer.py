@@ -147,10 +147,14 @@ class Trainer:
         return loggers
 
     def _beta(self) -> float:
+        """Probability that the expert acts: 1 -> ``imitation_beta_min`` over the first
+        ``imitation_beta_iters`` iterations of the warm start, 0 afterwards (PPO)."""
         c = self.config
-        if self.iteration >= c.imitation_iters or c.imitation_beta_iters <= 0:
+        if self.iteration >= c.imitation_iters:
             return 0.0
-        return max(0.0, 1.0 - self.iteration / c.imitation_beta_iters)
+        if c.imitation_beta_iters <= 0:
+            return c.imitation_beta_min
+        return max(c.imitation_beta_min, 1.0 - self.iteration / c.imitation_beta_iters)
 
     def _phase(self) -> str:
         return "imitation" if self.iteration < self.config.imitation_iters else "ppo"
