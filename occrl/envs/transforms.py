@@ -53,6 +53,10 @@ class _ObservationWriter(Transform):
     def _reset(self, tensordict: TensorDictBase, tensordict_reset: TensorDictBase) -> TensorDictBase:
         return self._call(tensordict_reset)
 
+    def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+        """Apply to a tensordict outside an env (e.g. one built from real detections)."""
+        return self._call(tensordict)
+
     def _out_spec(self, batch_shape: torch.Size):  # pragma: no cover - abstract
         raise NotImplementedError
 

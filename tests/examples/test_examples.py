@@ -1,0 +1,10 @@
+import runpy
+from pathlib import Path
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+
+
+def test_plan_from_detections_runs(capsys):
+    runpy.run_path(str(EXAMPLES / "plan_from_detections.py"), run_name="__main__")
+    out = capsys.readouterr().out
+    assert "root states:" in out and "action: forward" in out
