@@ -584,6 +584,6 @@ class HierarchicalPlanner(TensorDictModuleBase):
             world.restore(start)
             best = []
             while _inside(world.gripper_pose()) and len(best) < 15:
-                best.append(candidates["straight back"](world.gripper_pose()))
+                best.append(steer_action(world.gripper_pose(), candidates["straight back"][0], OPEN))
                 world.step(best[-1])
         return best or [np.array([0.0, 0.0, 0.0, OPEN])]
