@@ -148,3 +148,15 @@ def test_rejects_bad_arguments():
         HierarchicalPlanner(planner="prm")
     with pytest.raises(ValueError, match="search_y"):
         HierarchicalPlanner(search_y=0.1)
+
+
+def test_move_out_backs_straight_out_when_every_candidate_motion_is_rejected(monkeypatch):
+    import occrl.baselines.hierarchical as hier
+
+    env = make_env(batch_size=1, scenes=[scene([(0.1, 0.3, 0.0, True)], gripper=(0.0, 0.15, 0.0))], heatmap_target=False)
+    obs = env.reset()[0].exclude("privileged")
+    planner = HierarchicalPlanner(seed=0)
+    monkeypatch.setattr(hier, "_allowed", lambda *args, **kwargs: False)  # every simulated candidate "collides"
+    actions = planner._move_out(hier._Episode(), obs, obs["gripper_pose"].numpy().astype(float))
+    assert len(actions) > 1
+    assert all(a[0] < 0 and a[3] <= 0 for a in actions)  # backwards, gripper open
