@@ -1,0 +1,44 @@
+import json
+
+import numpy as np
+import pytest
+
+from occrl.cli import main
+from occrl.envs import observation_from_detections
+
+
+def test_eval_writes_json(tmp_path, capsys):
+    out = tmp_path / "r.json"
+    assert main(["eval", "--method", "scripted", "--tasks", "3", "--batch", "3", "--out", str(out), "--no-progress"]) == 0
+    data = json.loads(out.read_text())
+    assert data["tasks"] == 3 and len(data["episodes"]) == 3 and 0 <= data["success_rate"] <= 1
+    assert "success" in capsys.readouterr().out
+
+
+def test_bad_input_is_an_error_message_not_a_traceback(tmp_path, capsys):
+    assert main(["eval", "--method", "telepathy", "--tasks", "1"]) == 2
+    assert "unknown method" in capsys.readouterr().err
+    assert main(["train", "--preset", "huge", "--run-dir", str(tmp_path)]) == 2
+    assert "unknown training preset" in capsys.readouterr().err
+    assert main(["eval", "--method", "stochastic-gen", "--weights", str(tmp_path / "none.pt"), "--tasks", "1", "--no-progress"]) == 2
+    assert "no checkpoint" in capsys.readouterr().err
+
+
+def test_demo_writes_summary_gif_and_strip(tmp_path):
+    assert main(["demo", "--method", "scripted", "--tasks", "1", "--out", str(tmp_path)]) == 0
+    summary = json.loads((tmp_path / "demo_summary.json").read_text())
+    assert len(summary["tasks"]) == 1
+    assert (tmp_path / "demo.gif").stat().st_size > 1000 and (tmp_path / "demo_strip.png").stat().st_size > 1000
+
+
+@pytest.mark.parametrize(
+    "detections, message",
+    [
+        ([{"type_id": 2, "pose": (0.0, 0.1, float("nan")), "vertices": [[0, 0], [0.02, 0], [0, 0.02]]}], "finite"),
+        ([{"type_id": 2, "pose": (0.0, 0.1, 0.0), "vertices": [[0, 0], [0.02, 0]]}], "vertices"),
+        ([{"type_id": k, "pose": (0.0, 0.1, 0.0), "vertices": [[0, 0], [0.02, 0], [0, 0.02]]} for k in range(11)], "at most 10"),
+    ],
+)
+def test_malformed_detections_are_rejected(detections, message):
+    with pytest.raises(ValueError, match=message):
+        observation_from_detections((0.0, -0.1, 0.0), 0.085, detections, target_type=1, target_vertices=np.array([[0, 0], [0.02, 0], [0, 0.02]]))
