@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
+import torch
 from PIL import Image, ImageDraw
 
 from occrl.envs import world_constants as C
@@ -23,7 +24,7 @@ from occrl.envs.geometry import transform_points
 from occrl.envs.visibility import _pad, angular_extents
 from occrl.envs.world import gripper_polygons, wall_polygons
 
-__all__ = ["Canvas", "LABELS", "PALETTE", "render_labels", "render_true_scene", "labels_to_rgb", "DEFAULT_CANVAS", "SHELF_VIEW"]
+__all__ = ["Canvas", "LABELS", "PALETTE", "render_labels", "render_true_scene", "labels_to_rgb", "labels_to_pixels", "DEFAULT_CANVAS", "SHELF_VIEW"]
 
 LABELS = {"observable": 0, "occluded": 1, "wall": 2, "edge": 3, "clutter": 4, "target": 5, "gripper": 6}
 PALETTE = np.array(
@@ -195,6 +196,15 @@ def render_true_scene(
     for part in gripper_polygons(opening):
         _poly(draw, canvas, transform_points(part, gripper_pose), LABELS["gripper"])
     return np.asarray(img, dtype=np.uint8)
+
+
+_PALETTE_CHANNELS = np.ascontiguousarray((PALETTE.astype(np.float32) / 255.0).T)  # (3, classes)
+
+
+def labels_to_pixels(labels: np.ndarray) -> torch.Tensor:
+    """(B, S, S) labels -> (B, 3, S, S) float32 colours in [0, 1], the network input.
+    (numpy fancy indexing: ~10x faster than the torch equivalent on CPU.)"""
+    return torch.from_numpy(np.ascontiguousarray(_PALETTE_CHANNELS[:, labels].swapaxes(0, 1)))
 
 
 def labels_to_rgb(labels: np.ndarray) -> np.ndarray:

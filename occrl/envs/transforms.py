@@ -17,12 +17,11 @@ from torchrl.envs.transforms import Transform
 from occrl.envs import world_constants as C
 from occrl.envs.geometry import point_in_convex_polygon, transform_polygons
 from occrl.envs.perception import detected_polygons
-from occrl.envs.render import DEFAULT_CANVAS, LABELS, PALETTE, Canvas, render_labels
+from occrl.envs.render import DEFAULT_CANVAS, LABELS, Canvas, labels_to_pixels, render_labels
 from occrl.envs.robot_frame import DEFAULT_FORWARD_OFFSET, DEFAULT_SIZE, DEFAULT_WINDOW, robot_centric_pixels, robot_centric_points
 
 __all__ = ["OcclusionRender", "RobotCentricCrop", "HeatmapTarget"]
 
-_PALETTE_FLOAT = torch.from_numpy(PALETTE.astype(np.float32) / 255.0)  # (classes, 3)
 
 
 def _flat(td: TensorDictBase) -> TensorDictBase:
@@ -143,8 +142,7 @@ class RobotCentricCrop(_ObservationWriter):
         lead = labels_t.shape[:-2]
         labels = labels_t.reshape(-1, *labels_t.shape[-2:]).numpy()
         poses = next_tensordict.get("gripper_pose").reshape(-1, 3).cpu().numpy().astype(np.float64)
-        crop = torch.from_numpy(self.crop_labels(labels, poses).astype(np.int64))
-        pixels = _PALETTE_FLOAT[crop].permute(0, 3, 1, 2).contiguous()
+        pixels = labels_to_pixels(self.crop_labels(labels, poses))
         next_tensordict.set(self.out_keys[0], pixels.reshape(*lead, 3, self.size, self.size))
         if not self.keep_input:
             next_tensordict.exclude(self.in_keys[0], inplace=True)

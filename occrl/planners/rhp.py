@@ -22,7 +22,7 @@ import torch
 from tensordict import TensorDict
 
 from occrl.envs import world_constants as C
-from occrl.envs.render import PALETTE, render_labels, DEFAULT_CANVAS
+from occrl.envs.render import DEFAULT_CANVAS, labels_to_pixels, render_labels
 from occrl.envs.robot_frame import robot_centric_points
 from occrl.envs.visibility import detect, visible_fractions
 from occrl.envs.world import ShelfWorld, wall_polygons
@@ -32,7 +32,6 @@ from occrl.planners.recreate import RecreatedState, make_world
 __all__ = ["RHPResult", "rhp_batched", "rhp_sequential", "render_pixels", "NetworkStepper"]
 
 _WALLS = wall_polygons()
-_PALETTE_FLOAT = torch.from_numpy(PALETTE.astype(np.float32) / 255.0)
 
 
 def render_pixels(worlds: Sequence[ShelfWorld]) -> torch.Tensor:
@@ -47,8 +46,7 @@ def render_pixels(worlds: Sequence[ShelfWorld]) -> torch.Tensor:
             render_labels(gp, w.opening, [p for p, s in zip(polys, seen) if s], [i == w.target_index for i, s in enumerate(seen) if s])
         )
         poses.append(gp)
-    crop = DEFAULT_CANVAS.lookup(np.stack(labels), robot_centric_points(np.stack(poses)))
-    return _PALETTE_FLOAT[torch.from_numpy(crop.astype(np.int64))].permute(0, 3, 1, 2).contiguous()
+    return labels_to_pixels(DEFAULT_CANVAS.lookup(np.stack(labels), robot_centric_points(np.stack(poses))))
 
 
 class NetworkStepper:
