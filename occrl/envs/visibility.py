@@ -38,24 +38,29 @@ def _pad(polygons: Sequence[np.ndarray], size: int | None = None) -> np.ndarray:
     return out
 
 
+def _next_vertex(polys: np.ndarray) -> np.ndarray:
+    """Each vertex's successor (np.roll(polys, -1, axis=1), without roll's overhead)."""
+    return np.concatenate([polys[:, 1:], polys[:, :1]], axis=1)
+
+
 def angular_extents(polys: np.ndarray, cam: np.ndarray, with_tangents: bool = False):
     """Bearing interval ``[lo, hi]`` of each padded polygon seen from ``cam`` = (x, y, heading),
     in radians relative to the camera axis, and whether the camera is inside the polygon.
     With ``with_tangents`` also the indices of the vertices at ``lo`` and ``hi`` (the
     silhouette vertices, where shadows start)."""
-    cx, cy, th = cam
-    d = polys - np.array([cx, cy])
-    # bearings relative to the camera axis (+y of the gripper frame is heading th + pi/2)
-    ang = np.arctan2(d[..., 1], d[..., 0]) - (th + math.pi / 2)
-    centre = np.arctan2(d[..., 1].mean(-1), d[..., 0].mean(-1)) - (th + math.pi / 2)
-    rel = np.mod(ang - centre[:, None] + math.pi, 2 * math.pi) - math.pi
-    centre = np.mod(centre + math.pi, 2 * math.pi) - math.pi
+    cx, cy, th = (float(v) for v in cam)
+    dx, dy = polys[..., 0] - cx, polys[..., 1] - cy
+    mx, my = dx.mean(-1, keepdims=True), dy.mean(-1, keepdims=True)  # towards the polygon's centre
+    # bearings relative to that direction: one arctan2 of (cross, dot), no wrapping needed
+    rel = np.arctan2(mx * dy - my * dx, mx * dx + my * dy)
+    centre = np.arctan2(my[:, 0], mx[:, 0]) - (th + math.pi / 2)  # relative to the camera axis (+y)
+    centre = (centre + math.pi) % (2 * math.pi) - math.pi
     lo = centre + rel.min(-1)
     hi = centre + rel.max(-1)
     # camera inside a convex polygon <=> the camera is on the inner side of every edge
-    e = np.roll(polys, -1, axis=1) - polys
-    cross = e[..., 0] * (cy - polys[..., 1]) - e[..., 1] * (cx - polys[..., 0])
-    inside = np.all(cross >= 0, axis=-1)
+    nxt = _next_vertex(polys)
+    ex, ey = nxt[..., 0] - polys[..., 0], nxt[..., 1] - polys[..., 1]
+    inside = np.all(ex * -dy - ey * -dx >= 0, axis=-1)
     if with_tangents:
         return lo, hi, inside, rel.argmin(-1), rel.argmax(-1)
     return lo, hi, inside
@@ -68,8 +73,7 @@ def _ray_entry(polys: np.ndarray, cam: np.ndarray, bearings: np.ndarray) -> np.n
     phi = bearings + th + math.pi / 2
     dx, dy = np.cos(phi), np.sin(phi)  # (R,)
     a = polys
-    b = np.roll(polys, -1, axis=1)
-    e = b - a
+    e = _next_vertex(polys) - a
     nx, ny = e[..., 1], -e[..., 0]  # outward normals (CCW), zero for padded edges: (P, V)
     h = nx * a[..., 0] + ny * a[..., 1]  # n . p <= h inside
     nc = nx * cx + ny * cy  # (P, V)
