@@ -62,7 +62,7 @@ def _obs_panel(step: TensorDictBase, heatmap: np.ndarray | None = None, decision
         img = Image.fromarray(arr.astype(np.uint8))
     if decision is not None:
         draw = ImageDraw.Draw(img)
-        scale = PANEL / hm.shape[0] if heatmap is not None else PANEL / 64
+        scale = PANEL / step.get("pixels").shape[-1]  # heat-map pixels are the input image's pixels
         for k, root in enumerate(decision.roots):
             if root.peak_pixel is None:
                 continue
