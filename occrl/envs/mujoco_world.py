@@ -19,6 +19,7 @@ from occrl.envs import world_constants as C
 from occrl.envs.mujoco_camera import VISIBLE_GROUPS, CameraConfig, close_renderer, new_renderer, prism_pixel_counts, require_mujoco
 from occrl.envs.mujoco_model import FINGER_CLOSED_TARGET, OBJECT_HEIGHT_RANGE, TIMESTEP, build_mjcf, type_height
 from occrl.envs.scene import Scene
+from occrl.envs.world import StepOutcome
 
 __all__ = ["MujocoWorld", "FINGER_TIME", "SETTLE_TIME"]
 
@@ -121,6 +122,11 @@ class MujocoWorld:
         return self.data.qpos[self._hand_q].copy()
 
     @property
+    def held(self) -> int | None:
+        """The held object (a contact grasp), as ``ShelfWorld.held``."""
+        return self.held_object()
+
+    @property
     def opening(self) -> float:
         return float(np.clip(self.data.qpos[self._finger_q].sum(), 0.0, C.GRIPPER_STROKE))
 
@@ -153,8 +159,8 @@ class MujocoWorld:
         return self.data.qpos.copy(), self.data.qvel.copy(), self.data.ctrl.copy(), self.closed
 
     # ------------------------------------------------------------------ dynamics
-    def step(self, action) -> tuple[float, bool, tuple[int, ...]]:
-        """Execute one clipped action; returns (reward, retrieved, dropped object indices)."""
+    def step(self, action) -> StepOutcome:
+        """Execute one clipped action (the same interface as :meth:`ShelfWorld.step`)."""
         mj, m, d = self._mj, self.model, self.data
         a = np.clip(np.asarray(action, dtype=float).reshape(-1), -1.0, 1.0)
         if self.noise > 0.0:
@@ -189,7 +195,7 @@ class MujocoWorld:
         mj.mj_forward(m, d)  # positions, contacts and camera of the final state
         return self._outcome()
 
-    def _outcome(self) -> tuple[float, bool, tuple[int, ...]]:
+    def _outcome(self) -> StepOutcome:
         poses = self.object_poses()
         held = self.held_object()
         t = self.target_index
@@ -203,7 +209,7 @@ class MujocoWorld:
             if y < C.FRONT_EDGE_Y or y > C.SHELF_DEPTH + 0.05 or abs(x) > C.SHELF_HALF_WIDTH + 0.05 or z[i] < -0.05:
                 dropped.append(i)
         reward = C.STEP_REWARD + (C.DROP_PENALTY if dropped else 0.0)
-        return reward, bool(retrieved), tuple(dropped)
+        return StepOutcome(reward=reward, retrieved=bool(retrieved), dropped=tuple(dropped))
 
     def _perturb(self) -> None:
         """Density and friction ~ N(nominal, level * nominal), floored at 5 % and 0 (as in 2D)."""

@@ -201,7 +201,9 @@ class ShelfEnv(EnvBase):
         else:
             mask = np.ones(self.num_worlds, dtype=bool)
         for i in np.flatnonzero(mask):
-            self.worlds[i] = ShelfWorld(self._next_scene(i), noise=self.noise, rng=self._rngs[i])
+            if self.worlds[i] is not None:
+                self._release_world(self.worlds[i])
+            self.worlds[i] = self._new_world(i)
             self._steps[i] = 0
         zeros = np.zeros(self.num_worlds, dtype=bool)
         out = self._observe(success=zeros, dropped=zeros)
@@ -242,6 +244,22 @@ class ShelfEnv(EnvBase):
         )
         return out
 
+    # ------------------------------------------------------------------ world hooks
+    # A subclass executing the task in another simulator (MujocoShelfEnv) overrides these; its
+    # worlds offer ShelfWorld's interface (step -> StepOutcome, poses, held, opening, closed, ...).
+    def _new_world(self, i: int):
+        return ShelfWorld(self._next_scene(i), noise=self.noise, rng=self._rngs[i])
+
+    def _release_world(self, world) -> None:
+        """Free a world's resources before it is replaced."""
+
+    def _visible_fractions(self, world, poses: np.ndarray) -> np.ndarray:
+        return visible_fractions(world.object_world_padded(poses), world.gripper_pose(), _WALLS_PADDED)
+
+    def _extend_observation(self, out: TensorDictBase) -> TensorDictBase:
+        """Add simulator-specific entries (e.g. camera images) to an observation."""
+        return out
+
     # ------------------------------------------------------------------ perception
     def _observe(self, success: np.ndarray, dropped: np.ndarray) -> TensorDictBase:
         B, N, V = self.num_worlds, MAX_SLOTS, MAX_POLY_VERTICES
@@ -268,7 +286,7 @@ class ShelfEnv(EnvBase):
             n = w.num_objects
             gp = w.gripper_pose()
             poses = w.object_poses()
-            f = visible_fractions(w.object_world_padded(poses), gp, _WALLS_PADDED)
+            f = self._visible_fractions(w, poses)
             d = detect(f)
             gripper_pose[i] = gp
             opening[i, 0] = w.opening
@@ -292,7 +310,7 @@ class ShelfEnv(EnvBase):
             target_held[i, 0] = w.held == t
         t = torch.from_numpy
         batch = self.batch_size
-        return TensorDict(
+        out = TensorDict(
             {
                 "gripper_pose": t(gripper_pose),
                 "gripper_opening": t(opening),
@@ -322,3 +340,4 @@ class ShelfEnv(EnvBase):
             },
             batch_size=batch,
         )
+        return self._extend_observation(out)
