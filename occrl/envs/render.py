@@ -83,10 +83,6 @@ DEFAULT_CANVAS = Canvas()
 SHELF_VIEW = Canvas(x0=-0.32, x1=0.32, y0=-0.32, y1=0.40, resolution=0.0025)
 
 
-def _poly(draw: ImageDraw.ImageDraw, canvas: Canvas, poly: np.ndarray, label: int) -> None:
-    draw.polygon([tuple(p) for p in canvas.to_pixels(poly).tolist()], fill=label)
-
-
 def _draw_pixel_polys(draw: ImageDraw.ImageDraw, pixel_polys: np.ndarray, label: int) -> None:
     """Fill (P, V, 2) polygons given in pixel coordinates."""
     for flat in pixel_polys.reshape(len(pixel_polys), -1).tolist():
@@ -120,7 +116,7 @@ def render_labels(
     cam = np.array([cx, cy])
     img = Image.new("L", (canvas.shape[1], canvas.shape[0]), LABELS["observable"])
     draw = ImageDraw.Draw(img)
-    walls, edge, walls_padded = _static_pixels(canvas)
+    _, _, walls_padded = _static_pixels(canvas)
 
     # outside the field of view: the camera, then an arc around the back
     axis = th + math.pi / 2
@@ -141,15 +137,22 @@ def render_labels(
     shadows = np.stack([v_lo, v_hi, f_hi, f_lo], 1)[~inside]
     _draw_pixel_polys(draw, canvas.to_pixels(shadows), LABELS["occluded"])
 
+    _draw_shelf_and_bodies(draw, canvas, (cx, cy, th), opening, padded[:n], [len(p) for p in object_polygons], is_target)
+    return np.asarray(img, dtype=np.uint8)
+
+
+def _draw_shelf_and_bodies(draw, canvas: Canvas, gripper_pose, opening: float, padded: np.ndarray, counts, is_target) -> None:
+    """Walls, front edge, objects (padded polygons, ``counts`` real vertices) and the gripper, in
+    that order: what both the abstract observation and the true top-down view draw last."""
+    walls, edge, _ = _static_pixels(canvas)
     _draw_pixel_polys(draw, walls, LABELS["wall"])
     draw.line(edge, fill=LABELS["edge"], width=2)
-    if n:
-        obj_px = canvas.to_pixels(padded[:n]).reshape(n, -1).tolist()
-        for k, (flat, tgt) in enumerate(zip(obj_px, is_target)):
-            draw.polygon(flat[: 2 * len(object_polygons[k])], fill=LABELS["target"] if tgt else LABELS["clutter"])
+    if len(padded):
+        obj_px = canvas.to_pixels(padded).reshape(len(padded), -1).tolist()
+        for flat, count, tgt in zip(obj_px, counts, is_target):
+            draw.polygon(flat[: 2 * count], fill=LABELS["target"] if tgt else LABELS["clutter"])
     parts = _GRIPPER_PARTS if opening == C.GRIPPER_STROKE else np.stack(gripper_polygons(opening))
-    _draw_pixel_polys(draw, canvas.to_pixels(transform_points(parts, (cx, cy, th))), LABELS["gripper"])
-    return np.asarray(img, dtype=np.uint8)
+    _draw_pixel_polys(draw, canvas.to_pixels(transform_points(parts, gripper_pose)), LABELS["gripper"])
 
 
 def _fov_arc(fov: float) -> np.ndarray:
@@ -186,15 +189,8 @@ def render_true_scene(
 ) -> np.ndarray:
     """The ground-truth top-down view (every object, no occlusion) as a label map, for people."""
     img = Image.new("L", (canvas.shape[1], canvas.shape[0]), LABELS["observable"])
-    draw = ImageDraw.Draw(img)
-    for wall in _WALLS:
-        _poly(draw, canvas, wall, LABELS["wall"])
-    edge = canvas.to_pixels(np.array([[-C.SHELF_HALF_WIDTH, 0.0], [C.SHELF_HALF_WIDTH, 0.0]]))
-    draw.line([tuple(p) for p in edge.tolist()], fill=LABELS["edge"], width=2)
-    for poly, tgt in zip(object_polygons, is_target):
-        _poly(draw, canvas, poly, LABELS["target"] if tgt else LABELS["clutter"])
-    for part in gripper_polygons(opening):
-        _poly(draw, canvas, transform_points(part, gripper_pose), LABELS["gripper"])
+    padded = _pad(object_polygons, C.MAX_VERTICES) if len(object_polygons) else np.zeros((0, C.MAX_VERTICES, 2))
+    _draw_shelf_and_bodies(ImageDraw.Draw(img), canvas, gripper_pose, opening, padded, [len(p) for p in object_polygons], is_target)
     return np.asarray(img, dtype=np.uint8)
 
 
