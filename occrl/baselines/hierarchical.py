@@ -449,28 +449,30 @@ class HierarchicalPlanner(TensorDictModuleBase):
             )
         return plan
 
-    def _plan_reach(self, ep: _Episode, state: RecreatedState, ids: list[int], tid: int | None) -> PlanResult | None:
+    def _query_world(self, ep: _Episode, state: RecreatedState, ids: list[int], tid: int | None, query: str):
+        """(start time, world of the known state, index of object ``tid``) for a low-level query,
+        or None when the time budget is spent or the object is not known."""
         if not self._budget_ok(ep):
             return None
         if tid is None or tid not in ids:
-            logger.warning("reach: object %s is not in the known state", tid)
+            logger.warning("%s: object %s is not in the known state", query, tid)
             return None
-        t0 = time.perf_counter()
-        world = make_world(state)
-        i = ids.index(tid)
+        return time.perf_counter(), make_world(state), ids.index(tid)
+
+    def _plan_reach(self, ep: _Episode, state: RecreatedState, ids: list[int], tid: int | None) -> PlanResult | None:
+        prepared = self._query_world(ep, state, ids, tid, "reach")
+        if prepared is None:
+            return None
+        t0, world, i = prepared
         grasps = grasp_poses(world, i, prefer_angle=float(state.gripper_pose[2]))
         goal = ReachGoal(i, world.nominal_vertices, grasps, world.object_poses()[i])
         return self._solve(ep, world, goal, OPEN, t0=t0, forbidden=self._hiding(ep, state))
 
     def _plan_hold(self, ep, state, ids, tid, max_y=None, spot=None, finish=None) -> PlanResult | None:
-        if not self._budget_ok(ep):
+        prepared = self._query_world(ep, state, ids, tid, "hold")
+        if prepared is None:
             return None
-        if tid is None or tid not in ids:
-            logger.warning("hold: object %s is not in the known state", tid)
-            return None
-        t0 = time.perf_counter()
-        world = make_world(state)
-        i = ids.index(tid)
+        t0, world, i = prepared
         goal = HoldGoal(i, world.gripper_pose(), world.object_poses()[i], max_y=max_y, spot=spot, radius=self.place_radius)
         return self._solve(ep, world, goal, CLOSE, finish=finish, t0=t0, forbidden=self._hiding(ep, state))
 
