@@ -74,6 +74,19 @@ def _demo(args: argparse.Namespace) -> int:
     return 0
 
 
+def _stop_on_signals() -> None:
+    """SIGTERM (cluster schedulers, ``kill``) and SIGINT stop training through the trainer's
+    ``finally``, which writes the checkpoint. Needed explicitly: a background job started by a
+    non-interactive shell ignores SIGINT, and Python's default SIGTERM skips ``finally``."""
+    import signal
+
+    def stop(signum, frame):
+        raise KeyboardInterrupt(signal.Signals(signum).name)
+
+    signal.signal(signal.SIGTERM, stop)
+    signal.signal(signal.SIGINT, stop)
+
+
 def _train(args: argparse.Namespace) -> int:
     from occrl.training import Trainer, get_train_config
 
@@ -87,14 +100,27 @@ def _train(args: argparse.Namespace) -> int:
     if args.no_heatmap:
         overrides["heatmap"] = False
     config = get_train_config(args.preset, **overrides)
-    trainer = Trainer(config, args.run_dir, seed=args.seed, progress=not args.no_progress, checkpoint_every_s=args.checkpoint_every)
+    trainer = Trainer(config, args.run_dir, seed=args.seed, progress=not args.no_progress, checkpoint_every_s=args.checkpoint_every,
+                      ray_address=args.ray_address)
+    _stop_on_signals()
     try:
         summary = trainer.train(iterations=args.iterations, max_seconds=args.max_hours * 3600 if args.max_hours else None)
+    except KeyboardInterrupt as stop:
+        print(f"stopped ({stop or 'interrupted'}); checkpoint saved at iteration {trainer.iteration}: "
+              f"run the same command again to resume", file=sys.stderr)
+        return 130
     finally:
         trainer.close()
     print(json.dumps(summary, indent=2))
     print(f"checkpoint: {Path(args.run_dir) / 'checkpoint.pt'} (run the same command again to resume)")
     return 0
+
+
+def _stop_ray_if_used(args: argparse.Namespace) -> None:
+    if args.backend == "ray":
+        from occrl.distributed import stop_ray
+
+        stop_ray()
 
 
 def _eval(args: argparse.Namespace) -> int:
@@ -109,8 +135,12 @@ def _eval(args: argparse.Namespace) -> int:
         if unknown:
             print(f"unknown method(s) {unknown}; available: {METHODS}", file=sys.stderr)
             return 2
-        out = run_sweep(methods, args.out or "occrl-sweep", args.tasks, args.seed, batch=args.batch, workers=args.workers,
-                        weights=args.weights, progress=not args.no_progress)
+        try:
+            out = run_sweep(methods, args.out or "occrl-sweep", args.tasks, args.seed, batch=args.batch, workers=args.workers,
+                            weights=args.weights, progress=not args.no_progress, backend=args.backend,
+                            ray_address=args.ray_address)
+        finally:
+            _stop_ray_if_used(args)
         print(f"wrote {out / 'results.csv'}, {out / 'results.json'}, {out / 'sweep.png'}")
         return 0
     if not args.method:
@@ -122,7 +152,11 @@ def _eval(args: argparse.Namespace) -> int:
         return 2
     seeds = list(range(args.seed, args.seed + args.tasks))
     batch = 1 if args.method in PLANNERS else args.batch  # planners: one world per task, exact per-task time
-    results = run_tasks(args.method, args.stage, seeds, args.noise, args.objects, batch, args.workers, args.weights, not args.no_progress)
+    try:
+        results = run_tasks(args.method, args.stage, seeds, args.noise, args.objects, batch, args.workers, args.weights,
+                            not args.no_progress, backend=args.backend, ray_address=args.ray_address)
+    finally:
+        _stop_ray_if_used(args)
     summary = {
         "method": args.method,
         "network": args.weights or network_of(args.method),
@@ -226,7 +260,12 @@ def main(argv: list[str] | None = None) -> int:
     t.add_argument("--seed", type=int, default=0)
     t.add_argument("--iterations", type=int, default=None, help="stop after this many iterations in total")
     t.add_argument("--max-hours", type=float, default=None, help="stop after this many hours of this session")
-    t.add_argument("--collector", choices=["single", "multi"], default=None)
+    t.add_argument("--collector", choices=["single", "multi", "ray"], default=None,
+                   help="TorchRL collector: single process, MultiSyncCollector or RayCollector (a run may switch "
+                        "between multi and ray when resumed: they collect the same batches)")
+    t.add_argument("--ray-address", default=None,
+                   help="with --collector ray: join this Ray cluster ('auto', 'host:6379', 'ray://host:10001'); "
+                        "default: start a local Ray runtime")
     t.add_argument("--num-envs", type=int, default=None)
     t.add_argument("--imitation-iters", type=int, default=None, help="DAgger warm-start iterations (0 = PPO from scratch)")
     t.add_argument("--no-heatmap", action="store_true", help="train the net without heat-map head (baselines)")
@@ -244,7 +283,10 @@ def main(argv: list[str] | None = None) -> int:
     e.add_argument("--tasks", type=int, default=200, help="tasks per point (the paper uses 300 for sweeps)")
     e.add_argument("--seed", type=int, default=10_000_000, help="first task seed (held-out range by default)")
     e.add_argument("--batch", type=int, default=16, help="worlds stepped together (policies; planners use 1)")
-    e.add_argument("--workers", type=int, default=1, help="processes to spread tasks over")
+    e.add_argument("--workers", type=int, default=1, help="processes (or Ray actors) to spread tasks over")
+    e.add_argument("--backend", choices=["local", "ray"], default="local",
+                   help="local processes or Ray actors (results are the same for the same seeds)")
+    e.add_argument("--ray-address", default=None, help="with --backend ray: join this Ray cluster (default: a local runtime)")
     e.add_argument("--weights", default=None, help="network weights file instead of the shipped one")
     e.add_argument("--out", default=None, help="write the results as JSON")
     e.add_argument("--no-progress", action="store_true")

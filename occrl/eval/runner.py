@@ -7,9 +7,11 @@ evaluation seeds start at :data:`EVAL_SEED_BASE`, far from anything training sam
 
 from __future__ import annotations
 
+import logging
 import math
 import time
 from dataclasses import asdict, dataclass
+from pathlib import Path
 from typing import Callable, Sequence
 
 import numpy as np
@@ -20,6 +22,8 @@ from occrl.envs import Scene, make_env
 from occrl.envs import world_constants as C
 
 __all__ = ["EpisodeResult", "run_episodes", "run_tasks", "summarize", "task_scenes", "wilson_interval", "EVAL_SEED_BASE"]
+
+logger = logging.getLogger(__name__)
 
 EVAL_SEED_BASE = 10_000_000
 TIME_LIMIT_S = 120.0
@@ -127,6 +131,62 @@ def _run_chunk(args) -> list[EpisodeResult]:
     return run_episodes(m.policy, task_scenes(stage, seeds, num_objects), seeds, noise, len(seeds), m.primers, m.exploration)
 
 
+def _run_tasks_ray(method: str, weights, jobs: list, workers: int, address: str | None, bar, max_restarts: int = 2) -> list:
+    """Chunks on ``workers`` Ray actors (one CPU each); a chunk whose actor died runs again on a new
+    actor (chunks are seeded by their tasks, so the repeat gives the same results)."""
+    from occrl.distributed import WorkerDiedError, is_worker_death, require_ray, start_ray
+
+    ray = require_ray("occrl eval --backend ray")
+    start_ray(address, num_cpus=workers)
+    weights_blob = Path(weights).read_bytes() if weights else None  # cluster nodes need not share a disk
+
+    @ray.remote(num_cpus=1)
+    class EvalWorker:
+        def __init__(self) -> None:
+            path = None
+            if weights_blob is not None:
+                import tempfile
+
+                path = Path(tempfile.mkdtemp()) / "weights.pt"
+                path.write_bytes(weights_blob)
+            _init_worker(method, path, 1)
+
+        def run(self, job):
+            return _run_chunk(job)
+
+    actors = [EvalWorker.remote() for _ in range(min(workers, len(jobs)))]
+    results: list = [None] * len(jobs)
+    pending = {}  # object ref -> (job index, actor)
+    queue = list(range(len(jobs)))
+    restarts = 0
+    for actor in actors:
+        if queue:
+            k = queue.pop(0)
+            pending[actor.run.remote(jobs[k])] = (k, actor)
+    while pending:
+        [ref], _ = ray.wait(list(pending), num_returns=1)
+        k, actor = pending.pop(ref)
+        try:
+            results[k] = ray.get(ref)
+        except Exception as err:
+            if not is_worker_death(err):
+                raise
+            restarts += 1
+            if restarts > max_restarts:
+                raise WorkerDiedError(f"Ray evaluation workers died {restarts} times ({type(err).__name__}: {err})") from err
+            logger.error("a Ray evaluation worker died (%s); running its chunk on a new worker", type(err).__name__)
+            actor = EvalWorker.remote()
+            queue.insert(0, k)
+        else:
+            bar.update(len(jobs[k][1]))
+        if queue:
+            k = queue.pop(0)
+            pending[actor.run.remote(jobs[k])] = (k, actor)
+    for actor in actors:
+        ray.kill(actor)
+    return results
+
+
 def run_tasks(
     method: str,
     stage: int,
@@ -137,16 +197,24 @@ def run_tasks(
     workers: int = 1,
     weights=None,
     progress: bool = True,
+    backend: str = "local",
+    ray_address: str | None = None,
 ) -> list[EpisodeResult]:
     """Evaluate a named method on task seeds, in chunks of ``batch`` worlds spread over
-    ``workers`` processes (results do not depend on ``workers``)."""
+    ``workers`` processes (``backend="local"``) or Ray actors (``backend="ray"``, a local runtime
+    or the cluster at ``ray_address``). Results do not depend on ``workers`` or ``backend``
+    (per-task wall time aside)."""
     from tqdm import tqdm
 
+    if backend not in ("local", "ray"):
+        raise ValueError(f"backend must be 'local' or 'ray', got {backend!r}")
     chunks = [list(seeds[i : i + batch]) for i in range(0, len(seeds), batch)]
     bar = tqdm(total=len(seeds), desc=f"{method} stage {stage} noise {noise}", unit="task", disable=not progress)
     results: list[list[EpisodeResult]] = [None] * len(chunks)
     jobs = [(stage, c, num_objects, noise) for c in chunks]
-    if workers <= 1:
+    if backend == "ray":
+        results = _run_tasks_ray(method, weights, jobs, max(1, workers), ray_address, bar)
+    elif workers <= 1:
         _init_worker(method, weights, torch.get_num_threads())
         for k, job in enumerate(jobs):
             results[k] = _run_chunk(job)

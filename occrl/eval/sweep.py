@@ -44,16 +44,17 @@ def _point_path(out: Path, method: str, sweep: str, value: float) -> Path:
     return out / "points" / f"{method}__{sweep}__{value:g}.json"
 
 
-def _run_point(method: str, sweep: str, value: float, seeds: list[int], batch: int, workers: int, weights, progress: bool) -> list[EpisodeResult]:
+def _run_point(method: str, sweep: str, value: float, seeds: list[int], batch: int, workers: int, weights, progress: bool,
+               **backend) -> list[EpisodeResult]:
     if sweep == "clutter":
-        return run_tasks(method, SCENE_STAGE, seeds, 0.0, int(value), batch, workers, weights, progress)
+        return run_tasks(method, SCENE_STAGE, seeds, 0.0, int(value), batch, workers, weights, progress, **backend)
     # noise sweep: a random object count per task; group tasks by count so scenes are sampled alike
     results: dict[int, EpisodeResult] = {}
     by_count: dict[int, list[int]] = {}
     for s in seeds:
         by_count.setdefault(noise_sweep_objects(s), []).append(s)
     for count, group in sorted(by_count.items()):
-        for r in run_tasks(method, SCENE_STAGE, group, value, count, batch, workers, weights, progress):
+        for r in run_tasks(method, SCENE_STAGE, group, value, count, batch, workers, weights, progress, **backend):
             results[r.seed] = r
     return [results[s] for s in seeds]
 
@@ -69,8 +70,11 @@ def run_sweep(
     workers: int = 1,
     weights=None,
     progress: bool = True,
+    backend: str = "local",
+    ray_address: str | None = None,
 ) -> Path:
-    """Run (or resume) the sweep; returns the output folder."""
+    """Run (or resume) the sweep; returns the output folder. ``backend="ray"`` spreads each
+    point's tasks over Ray actors (see :func:`occrl.eval.runner.run_tasks`)."""
     from occrl.eval.methods import PLANNERS
 
     out = Path(out)
@@ -83,7 +87,8 @@ def run_sweep(
                 if path.exists():
                     continue
                 b = 1 if method in PLANNERS else batch
-                results = _run_point(method, sweep, value, seeds, b, workers, weights, progress)
+                results = _run_point(method, sweep, value, seeds, b, workers, weights, progress, backend=backend,
+                                     ray_address=ray_address)
                 point = {"method": method, "sweep": sweep, "value": value, **summarize(results), "episodes": [r.to_dict() for r in results]}
                 tmp = path.with_suffix(".tmp")
                 tmp.write_text(json.dumps(point))

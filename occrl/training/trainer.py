@@ -46,6 +46,33 @@ WEIGHTS = "weights.pt"
 METRICS = "metrics.jsonl"
 
 
+RAY_WORKER_MEMORY = 2 * 1024**3  # bytes reserved per Ray collector worker
+
+# settings that change where frames are computed but not which: a run may resume under another one
+_RUNTIME_SETTINGS = {"collector": {"multi", "ray"}}
+
+
+def _same_run_settings(saved: dict, current: dict) -> bool:
+    """Equal training settings, except a run collected by "multi" may resume on "ray" and back."""
+    for key, interchangeable in _RUNTIME_SETTINGS.items():
+        if saved.get(key) in interchangeable and current.get(key) in interchangeable:
+            saved, current = {**saved, key: None}, {**current, key: None}
+    return saved == current
+
+
+class SeededCollector(Collector):
+    """A ``Collector`` whose ``set_seed`` does what ``MultiSyncCollector.set_seed`` does in each
+    worker: seed the envs, the process's torch and numpy generators, then reset the envs. Ray
+    workers run this class, so a "ray" run collects the same batches as a "multi" run (tested)."""
+
+    def set_seed(self, seed: int, static_seed: bool = False) -> int:
+        out = super().set_seed(seed, static_seed=static_seed)
+        torch.manual_seed(seed)
+        np.random.seed(seed)
+        self.reset()
+        return out
+
+
 def _env_factory(stage: int, noise: float, num_envs: int, seed: int, primer_net):
     env = make_env(batch_size=num_envs, stage=stage, noise=noise, seed=seed)
     return env.append_transform(primer_net.make_primer())
@@ -80,8 +107,14 @@ class Trainer:
     """
 
     def __init__(self, config: TrainConfig, run_dir: str | Path, seed: int = 0, progress: bool = True,
-                 checkpoint_every_s: float = 300.0, tensorboard: bool = True) -> None:
+                 checkpoint_every_s: float = 300.0, tensorboard: bool = True, ray_address: str | None = None,
+                 max_worker_restarts: int = 2) -> None:
         self.config = config
+        self.ray_address = ray_address  # where the "ray" collector runs (None: a local Ray runtime)
+        self.max_worker_restarts = max_worker_restarts
+        # threads for the update; collector workers are idle meanwhile (sync collection), so the
+        # main process may use every core (MultiSyncCollector would otherwise leave it one thread)
+        self.update_threads = torch.get_num_threads()
         self.run_dir = Path(run_dir)
         self.run_dir.mkdir(parents=True, exist_ok=True)
         self.seed = int(seed)
@@ -114,7 +147,7 @@ class Trainer:
         ckpt = self.run_dir / CHECKPOINT
         if ckpt.exists():
             obj = load_checkpoint(ckpt, self.net, self.optimizer)
-            if obj["train_config"] != config.to_dict():
+            if not _same_run_settings(obj["train_config"], config.to_dict()):
                 raise ValueError(f"{ckpt} was written with other training settings; use another run folder")
             st = obj["state"]
             if st["seed"] != self.seed:
@@ -176,31 +209,82 @@ class Trainer:
                 reset_at_each_iter=True,
                 exploration_type=ExplorationType.RANDOM,
             )
-        elif c.collector == "multi":
+        elif c.collector in ("multi", "ray"):
             per = c.num_envs // c.workers
             if per * c.workers != c.num_envs:
                 raise ValueError(f"num_envs ({c.num_envs}) must be a multiple of workers ({c.workers})")
-            self._collector = MultiSyncCollector(
-                [partial(_env_factory, stage, c.noise, per, self.seed + k, self.net) for k in range(c.workers)],
-                policy,
-                frames_per_batch=c.frames_per_batch,
-                total_frames=-1,
-                reset_at_each_iter=True,
-                exploration_type=ExplorationType.RANDOM,
-            )
+            # worker k steps envs seeded from seed + k in both: the same batches either way (tested)
+            factories = [partial(_env_factory, stage, c.noise, per, self.seed + k, self.net) for k in range(c.workers)]
+            if c.collector == "multi":
+                self._collector = MultiSyncCollector(
+                    factories,
+                    policy,
+                    num_threads=self.update_threads,
+                    frames_per_batch=c.frames_per_batch,
+                    total_frames=-1,
+                    reset_at_each_iter=True,
+                    exploration_type=ExplorationType.RANDOM,
+                )
+            else:
+                from torchrl.collectors.distributed import RayCollector
+
+                from occrl.distributed import start_ray
+
+                start_ray(self.ray_address, num_cpus=c.workers)
+                self._collector = RayCollector(
+                    factories,
+                    policy,
+                    collector_class=SeededCollector,
+                    num_collectors=c.workers,
+                    sync=True,
+                    frames_per_batch=c.frames_per_batch,
+                    total_frames=2**62,  # RayCollector stops at once on -1 ("endless" elsewhere)
+                    reset_at_each_iter=True,
+                    exploration_type=ExplorationType.RANDOM,
+                    remote_configs={"num_cpus": 1, "memory": RAY_WORKER_MEMORY},
+                )
         else:
-            raise ValueError(f"collector must be 'single' or 'multi', got {c.collector!r}")
+            raise ValueError(f"collector must be 'single', 'multi' or 'ray', got {c.collector!r}")
         self._collector_stage = stage
         self._iterator = iter(self._collector)
         return self._collector
 
     def close(self) -> None:
         if self._collector is not None:
-            self._collector.shutdown()
-            self._collector = None
+            try:
+                self._collector.shutdown()
+            finally:
+                self._collector = None
+        if self.config.collector == "ray":
+            from occrl.distributed import stop_ray
+
+            stop_ray()
 
     # ------------------------------------------------------------------ one iteration
     def _collect(self) -> TensorDictBase:
+        """One batch; when a Ray worker dies the collector is rebuilt and the iteration repeated
+        (every iteration is seeded afresh, so the repeat gives the batch the lost one would have)."""
+        for attempt in range(self.max_worker_restarts + 1):
+            try:
+                return self._collect_once()
+            except Exception as err:
+                from occrl.distributed import WorkerDiedError, is_worker_death
+
+                if self.config.collector != "ray" or not is_worker_death(err):
+                    raise
+                broken, self._collector, self._collector_stage = self._collector, None, None
+                try:  # stop the surviving actors of the broken collector
+                    broken.shutdown()
+                except Exception:  # noqa: BLE001 - the dead actor makes shutdown fail; nothing to keep
+                    pass
+                if attempt == self.max_worker_restarts:
+                    raise WorkerDiedError(
+                        f"a Ray collector worker died at iteration {self.iteration} and {self.max_worker_restarts} "
+                        f"replacements died too ({type(err).__name__}: {err})") from err
+                logger.error("a Ray collector worker died at iteration %d (%s); starting new workers and repeating "
+                             "the iteration (%d/%d)", self.iteration, type(err).__name__, attempt + 1, self.max_worker_restarts)
+
+    def _collect_once(self) -> TensorDictBase:
         collector = self._get_collector()
         it_seed = self.seed * 1_000_003 + self.iteration
         torch.manual_seed(it_seed)
@@ -277,7 +361,7 @@ class Trainer:
     def train(self, iterations: int | None = None, max_seconds: float | None = None) -> dict:
         """Run until ``iterations`` iterations in total (counting resumed ones) or ``max_seconds``."""
         c = self.config
-        torch.set_num_threads(max(1, torch.get_num_threads()))
+        torch.set_num_threads(self.update_threads)
         target = iterations if iterations is not None else math.inf
         start_wall = time.time()
         last_ckpt = time.time()
