@@ -1,11 +1,11 @@
 """Training throughput on this machine: frames/s for collection alone and collection + update.
 
 Usage:
-    python benchmarks/train_throughput.py [--iterations 3] [--envs 32]
+    python benchmarks/train_throughput.py [--iterations 3] [--envs 32] [--collectors single,multi,ray]
 
 Measures the paper network with the `cpu` training preset settings (PPO update, 2 epochs) for a
-single-process Collector and a 2-worker MultiSyncCollector. The first iteration (worker start-up)
-is not counted.
+single-process Collector, a 2-worker MultiSyncCollector and a 2-worker RayCollector on a local Ray
+runtime (needs ``pip install "occrl[ray]"``). The first iteration (worker start-up) is not counted.
 """
 
 from __future__ import annotations
@@ -48,9 +48,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--iterations", type=int, default=3)
     parser.add_argument("--envs", type=int, default=32)
+    parser.add_argument("--collectors", default="single,multi,ray")
     args = parser.parse_args()
     print(f"paper network, cpu preset PPO update, {args.envs} envs x 50 steps per batch, torch threads {torch.get_num_threads()}")
-    for collector in ("single", "multi"):
+    for collector in args.collectors.split(","):
         c, t = measure(collector, args.envs, args.iterations)
         print(f"{collector:>6} collector: collection {c:6.0f} frames/s, collection + update {t:6.0f} frames/s")
 

@@ -17,7 +17,7 @@ from tensordict import TensorDictBase
 from occrl.envs.geometry import transform_polygons
 from occrl.envs.render import SHELF_VIEW, labels_to_rgb, render_true_scene
 
-__all__ = ["episode_frames", "frame", "save_gif", "save_film_strip"]
+__all__ = ["episode_frames", "frame", "decision_panels", "save_gif", "save_film_strip"]
 
 logger = logging.getLogger(__name__)
 
@@ -115,6 +115,54 @@ def episode_frames(rollout: TensorDictBase, heatmaps: Sequence[np.ndarray] | Non
     end = "success" if bool(last.get("success").any()) else ("dropped an object" if bool(last.get("dropped").any()) else "not retrieved")
     frames.append(frame(last, f"after {T} actions: {end}"))
     return frames
+
+
+def decision_panels(decision) -> list[np.ndarray]:
+    """One picture per root state of a planner decision (``HybridPlanner.decisions[t]``): the
+    recreated shelf with the hypothesised target (red), the m roll-outs' gripper paths (grey; the
+    root's best in blue, the executed one in orange) and a caption with the root's weight and
+    return. This is the planner's own view: objects it has not detected are not drawn.
+
+    Examples:
+        >>> from occrl.envs import make_env
+        >>> from occrl.modules import make_occnet
+        >>> from occrl.planners import HybridPlanner
+        >>> net = make_occnet("paper")
+        >>> env = make_env(batch_size=1, stage=1, seed=0).append_transform(net.make_primer())
+        >>> planner = HybridPlanner(net, m=2, h=2)
+        >>> _ = env.rollout(1, planner)
+        >>> panels = decision_panels(planner.decisions[-1])
+        >>> len(panels) == len(planner.decisions[-1].roots), panels[0].dtype
+        (True, dtype('uint8'))
+    """
+    result = decision.result
+    panels = []
+    for r, root in enumerate(decision.roots):
+        st = root.state
+        labels = render_true_scene(np.asarray(st.gripper_pose, float), st.opening, st.polygons(), [o.is_target for o in st.objects], SHELF_VIEW)
+        img = Image.fromarray(labels_to_rgb(labels))
+        sx = PANEL / labels.shape[1]
+        img = img.resize((PANEL, int(labels.shape[0] * sx)), Image.BILINEAR)
+        draw = ImageDraw.Draw(img)
+        best = int(np.argmax(result.returns[r]))
+        order = [i for i in range(result.returns.shape[1]) if i != best] + [best]  # best drawn last, on top
+        for i in order:
+            if result.paths is None:
+                break
+            path = result.paths[r, i]
+            path = path[np.isfinite(path[:, 0])]
+            pts = SHELF_VIEW.to_pixels(path[:, :2]) * sx + 0.5 * sx
+            colour = ((255, 140, 0) if r == decision.chosen_root else (40, 90, 230)) if i == best else (110, 110, 110)
+            if len(pts) > 1:
+                draw.line([tuple(q) for q in pts], fill=colour, width=3 if i == best else 1)
+            for q in pts[1:]:
+                draw.ellipse([q[0] - 2, q[1] - 2, q[0] + 2, q[1] + 2], fill=colour)
+        chosen = "  executed" if r == decision.chosen_root else ""
+        where = "target seen" if root.peak_pixel is None else "target hypothesised"
+        draw.text((4, 3), f"root {r}: w {root.weight:.2f}, {where}", fill=(0, 0, 0))
+        draw.text((4, 15), f"best return {result.value[r]:.1f}{chosen}", fill=(0, 0, 0))
+        panels.append(np.asarray(img))
+    return panels
 
 
 def save_gif(frames: Sequence[np.ndarray], path: str | Path, fps: float = 4.0) -> Path:

@@ -21,7 +21,6 @@ from typing import Sequence
 
 import numpy as np
 
-from occrl.envs.scene import Scene
 from occrl.eval.runner import EVAL_SEED_BASE, EpisodeResult, run_tasks, summarize
 
 __all__ = ["SWEEPS", "run_sweep", "summarize_sweep", "plot_sweep", "noise_sweep_objects"]
@@ -121,14 +120,12 @@ def summarize_sweep(out: str | Path) -> list[dict]:
 
 def plot_sweep(out: str | Path) -> Path:
     """Fig. 5 layout: columns success rate, time per task, actions per task; rows clutter, noise."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure  # no pyplot: leaves the caller's backend (e.g. a notebook's) alone
 
     out = Path(out)
     rows = summarize_sweep(out)
-    fig, axes = plt.subplots(2, 3, figsize=(13, 7))
+    fig = Figure(figsize=(13, 7))
+    axes = fig.subplots(2, 3)
     for i, sweep in enumerate(("clutter", "noise")):
         for method in sorted({r["method"] for r in rows if r["sweep"] == sweep}):
             pts = sorted((r for r in rows if r["sweep"] == sweep and r["method"] == method), key=lambda r: r["value"])
@@ -147,5 +144,4 @@ def plot_sweep(out: str | Path) -> Path:
     fig.tight_layout()
     path = out / "sweep.png"
     fig.savefig(path, dpi=100)
-    plt.close(fig)
     return path

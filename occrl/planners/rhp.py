@@ -81,12 +81,13 @@ class RHPResult:
     returns: np.ndarray  # (R, m)
     first_actions: np.ndarray  # (R, m, 4)
     steps: int  # world steps simulated
+    paths: np.ndarray | None = None  # (R, m, h + 1, 3) gripper poses along each roll-out, NaN after its end
 
 
-def _finish(returns: np.ndarray, first: np.ndarray, steps: int) -> RHPResult:
+def _finish(returns: np.ndarray, first: np.ndarray, steps: int, paths: np.ndarray) -> RHPResult:
     best = returns.argmax(axis=1)
     ar = np.arange(returns.shape[0])
-    return RHPResult(first[ar, best], returns[ar, best], returns, first, steps)
+    return RHPResult(first[ar, best], returns[ar, best], returns, first, steps, paths)
 
 
 def rhp_batched(
@@ -112,6 +113,8 @@ def rhp_batched(
     ret = np.zeros(n)
     alive = np.ones(n, dtype=bool)
     first = np.zeros((n, 4))
+    paths = np.full((n, depth + 1, 3), np.nan)
+    paths[:, 0] = [w.gripper_pose() for w in worlds]
     discount = 1.0
     steps = 0
     for j in range(depth):
@@ -120,6 +123,7 @@ def rhp_batched(
             first = action.copy()
         for k in np.flatnonzero(alive):
             out = worlds[k].step(action[k])
+            paths[k, j + 1] = worlds[k].gripper_pose()
             steps += 1
             ret[k] += discount * out.reward
             if out.terminal:
@@ -138,7 +142,7 @@ def rhp_batched(
     if alive.any():
         idx = torch.from_numpy(np.flatnonzero(alive))
         ret[alive] += discount * stepper.value(td[idx]).numpy()
-    return _finish(ret.reshape(R, m), first.reshape(R, m, 4), steps)
+    return _finish(ret.reshape(R, m), first.reshape(R, m, 4), steps, paths.reshape(R, m, depth + 1, 3))
 
 
 def rhp_sequential(
@@ -153,10 +157,12 @@ def rhp_sequential(
     stepper = NetworkStepper(net)
     returns = np.zeros((R, m))
     first = np.zeros((R, m, 4))
+    paths = np.full((R, m, depth + 1, 3), np.nan)
     steps = 0
     for r, root in enumerate(roots):
         for i in range(m):
             world = make_world(root)
+            paths[r, i, 0] = world.gripper_pose()
             td, h, c = stepper.step(render_pixels([world]), hidden[0], hidden[1])
             ret, discount, terminal = 0.0, 1.0, False
             for j in range(depth):
@@ -164,6 +170,7 @@ def rhp_sequential(
                 if j == 0:
                     first[r, i] = action
                 out = world.step(action)
+                paths[r, i, j + 1] = world.gripper_pose()
                 steps += 1
                 ret += discount * out.reward
                 discount *= gamma
@@ -174,4 +181,4 @@ def rhp_sequential(
             if not terminal:
                 ret += discount * float(stepper.value(td)[0])
             returns[r, i] = ret
-    return _finish(returns, first, steps)
+    return _finish(returns, first, steps, paths)

@@ -34,14 +34,12 @@ def _smooth(y: np.ndarray, k: int = 10) -> np.ndarray:
 
 def plot_learning_curves(metrics_path: str | Path, out_path: str | Path, title: str | None = None) -> Path:
     """Success rate, return, heat-map loss and stage against frames, one PNG."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure  # no pyplot: leaves the caller's backend (e.g. a notebook's) alone
 
     rows = read_metrics(metrics_path)
     frames = np.array([r["frames"] for r in rows]) / 1e6
-    fig, axes = plt.subplots(2, 2, figsize=(10, 6.5), sharex=True)
+    fig = Figure(figsize=(10, 6.5))
+    axes = fig.subplots(2, 2, sharex=True)
     panels = [
         ("success_rate", "training-episode success rate"),
         ("episode_return", "episode return"),
@@ -68,5 +66,4 @@ def plot_learning_curves(metrics_path: str | Path, out_path: str | Path, title: 
     fig.tight_layout()
     out_path = Path(out_path)
     fig.savefig(out_path, dpi=100)
-    plt.close(fig)
     return out_path

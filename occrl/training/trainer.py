@@ -23,7 +23,7 @@ import numpy as np
 import torch
 from tensordict import TensorDictBase
 from torchrl.collectors import Collector, MultiSyncCollector
-from torchrl.envs.utils import ExplorationType, set_exploration_type
+from torchrl.envs.utils import ExplorationType
 from torchrl.modules import set_recurrent_mode
 
 from occrl.baselines.scripted import ScriptedRetriever

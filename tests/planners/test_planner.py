@@ -50,6 +50,11 @@ def test_batched_rhp_chooses_like_the_sequential_reference(net):
         np.testing.assert_allclose(a.action, b.action, atol=1e-5)
         np.testing.assert_allclose(a.returns, b.returns, atol=1e-4)
         assert a.steps == b.steps
+        # both record the same gripper paths; every roll-out starts at the root's gripper pose
+        assert a.paths.shape == (2, 3, 4, 3)
+        np.testing.assert_allclose(a.paths, b.paths, atol=1e-6)
+        assert np.isfinite(a.paths[:, :, :2]).all()  # one step at least before any roll-out can end
+        np.testing.assert_allclose(a.paths[:, :, 0], np.broadcast_to(state.gripper_pose, (2, 3, 3)), atol=1e-9)
 
 
 def test_planner_never_reads_privileged_entries(net):
