@@ -151,10 +151,13 @@ def _eval(args: argparse.Namespace) -> int:
         print(f"unknown method {args.method!r}; available: {METHODS}", file=sys.stderr)
         return 2
     seeds = list(range(args.seed, args.seed + args.tasks))
+    objects = _parse_objects(args.objects)
     batch = 1 if args.method in PLANNERS else args.batch  # planners: one world per task, exact per-task time
+    if args.world == "mujoco":
+        batch = 1  # one MuJoCo world per task: per-task time is exact and memory stays small
     try:
-        results = run_tasks(args.method, args.stage, seeds, args.noise, args.objects, batch, args.workers, args.weights,
-                            not args.no_progress, backend=args.backend, ray_address=args.ray_address)
+        results = run_tasks(args.method, args.stage, seeds, args.noise, objects, batch, args.workers, args.weights,
+                            not args.no_progress, backend=args.backend, ray_address=args.ray_address, world=args.world)
     finally:
         _stop_ray_if_used(args)
     summary = {
@@ -163,13 +166,14 @@ def _eval(args: argparse.Namespace) -> int:
         "stage": args.stage,
         "objects": args.objects,
         "noise": args.noise,
+        "world": args.world,
         "first_seed": args.seed,
         **summarize(results),
         "episodes": [r.to_dict() for r in results],
     }
     lo, hi = summary["success_ci95"]
     print(
-        f"{args.method}: stage {args.stage}, noise {args.noise}, {summary['tasks']} tasks: success {summary['success_rate']:.1%} "
+        f"{args.method}: {args.world} world, stage {args.stage}, objects {args.objects or 'of the stage'}, noise {args.noise}, {summary['tasks']} tasks: success {summary['success_rate']:.1%} "
         f"(95% CI {lo:.1%}-{hi:.1%}), dropped {summary['dropped']}, mean actions {summary['mean_actions']:.1f}, "
         f"mean time {summary['mean_seconds']:.2f} s"
     )
@@ -178,6 +182,24 @@ def _eval(args: argparse.Namespace) -> int:
         Path(args.out).write_text(json.dumps(summary, indent=2))
         print(f"wrote {args.out}")
     return 0
+
+
+def _parse_objects(text: str | None) -> int | tuple[int, int] | None:
+    """``--objects``: a count ("7") or a range ("1-10", each task draws its count from its seed)."""
+    if text is None:
+        return None
+    try:
+        if "-" in text:
+            low, high = (int(v) for v in text.split("-", 1))
+            if not 1 <= low <= high:
+                raise ValueError
+            return (low, high)
+        count = int(text)
+        if count < 1:
+            raise ValueError
+        return count
+    except ValueError:
+        raise ValueError(f"--objects must be a count >= 1 or a range LOW-HIGH with 1 <= LOW <= HIGH, got {text!r}") from None
 
 
 def network_of(method: str) -> str | None:
@@ -278,7 +300,10 @@ def main(argv: list[str] | None = None) -> int:
     e.add_argument("--sweep", action="store_true", help="the papers' clutter and noise sweeps (resumable; --out is a folder)")
     e.add_argument("--methods", default=None, help="comma-separated methods for --sweep (default: all but scripted)")
     e.add_argument("--stage", type=int, default=1, choices=[1, 2, 3])
-    e.add_argument("--objects", type=int, default=None, help="fixed number of objects (clutter sweep)")
+    e.add_argument("--objects", default=None,
+                   help="object count per task: a number, or a range like 1-10 (each task draws its count from its seed)")
+    e.add_argument("--world", choices=["pymunk", "mujoco"], default="pymunk",
+                   help="execution env: the 2D pymunk world or the 3D MuJoCo shelf (planners still plan in pymunk)")
     e.add_argument("--noise", type=float, default=0.0)
     e.add_argument("--tasks", type=int, default=200, help="tasks per point (the paper uses 300 for sweeps)")
     e.add_argument("--seed", type=int, default=10_000_000, help="first task seed (held-out range by default)")

@@ -21,7 +21,8 @@ from torchrl.envs.utils import ExplorationType, set_exploration_type
 from occrl.envs import Scene, make_env
 from occrl.envs import world_constants as C
 
-__all__ = ["EpisodeResult", "run_episodes", "run_tasks", "summarize", "task_scenes", "wilson_interval", "EVAL_SEED_BASE"]
+__all__ = ["EpisodeResult", "run_episodes", "run_tasks", "summarize", "task_scenes", "task_object_count", "wilson_interval",
+           "EVAL_SEED_BASE"]
 
 logger = logging.getLogger(__name__)
 
@@ -42,7 +43,19 @@ class EpisodeResult:
         return asdict(self)
 
 
-def task_scenes(stage: int, seeds: Sequence[int], num_objects: int | None = None) -> list[Scene]:
+def task_object_count(seed: int, low: int, high: int) -> int:
+    """The object count of task ``seed`` when tasks draw it uniformly from ``low..high``."""
+    return int(np.random.default_rng([int(seed), 7]).integers(low, high + 1))
+
+
+def task_scenes(stage: int, seeds: Sequence[int], num_objects: int | tuple[int, int] | None = None) -> list[Scene]:
+    """The scenes of task seeds: the stage's object counts, a fixed count, or (low, high) for a
+    count drawn per task from its seed (the papers' "random number of objects, up to 10")."""
+    if isinstance(num_objects, (tuple, list)):
+        low, high = (int(v) for v in num_objects)
+        if not 1 <= low <= high:
+            raise ValueError(f"an object-count range needs 1 <= low <= high, got {num_objects}")
+        return [Scene.sample(stage, seed=int(s), num_objects=task_object_count(s, low, high)) for s in seeds]
     return [Scene.sample(stage, seed=int(s), num_objects=num_objects) for s in seeds]
 
 
@@ -66,6 +79,7 @@ def run_episodes(
     primers: Sequence = (),
     exploration: ExplorationType = ExplorationType.RANDOM,
     heatmap_target: bool = False,
+    world: str = "pymunk",
 ) -> list[EpisodeResult]:
     """Run ``policy`` once on each scene (batches of ``batch_size`` worlds stepped together).
 
@@ -77,7 +91,8 @@ def run_episodes(
         chunk = list(scenes[start : start + batch_size])
         chunk_seeds = list(seeds[start : start + batch_size])
         # each world's execution noise follows its own task seed
-        env = make_env(batch_size=len(chunk), scenes=chunk, noise=noise, seed=[int(s) for s in chunk_seeds], heatmap_target=heatmap_target)
+        env = make_env(batch_size=len(chunk), scenes=chunk, noise=noise, seed=[int(s) for s in chunk_seeds], heatmap_target=heatmap_target,
+                       backend=world)
         for p in primers:
             env.append_transform(p.clone() if hasattr(p, "clone") else p)
         # randomness of the decision maker follows the chunk's first task seed, so results do not
@@ -126,9 +141,10 @@ def _init_worker(method: str, weights, threads: int) -> None:
 
 
 def _run_chunk(args) -> list[EpisodeResult]:
-    stage, seeds, num_objects, noise = args
+    stage, seeds, num_objects, noise, world = args
     m = _WORKER["method"]
-    return run_episodes(m.policy, task_scenes(stage, seeds, num_objects), seeds, noise, len(seeds), m.primers, m.exploration)
+    return run_episodes(m.policy, task_scenes(stage, seeds, num_objects), seeds, noise, len(seeds), m.primers, m.exploration,
+                        world=world)
 
 
 def _run_tasks_ray(method: str, weights, jobs: list, workers: int, address: str | None, bar, max_restarts: int = 2) -> list:
@@ -199,11 +215,14 @@ def run_tasks(
     progress: bool = True,
     backend: str = "local",
     ray_address: str | None = None,
+    world: str = "pymunk",
 ) -> list[EpisodeResult]:
     """Evaluate a named method on task seeds, in chunks of ``batch`` worlds spread over
     ``workers`` processes (``backend="local"``) or Ray actors (``backend="ray"``, a local runtime
     or the cluster at ``ray_address``). Results do not depend on ``workers`` or ``backend``
-    (per-task wall time aside)."""
+    (per-task wall time aside). ``world="mujoco"`` executes in the 3D MuJoCo env (the planners
+    still plan in pymunk, recreated from its detections); ``num_objects=(low, high)`` draws each
+    task's object count from its seed."""
     from tqdm import tqdm
 
     if backend not in ("local", "ray"):
@@ -211,7 +230,7 @@ def run_tasks(
     chunks = [list(seeds[i : i + batch]) for i in range(0, len(seeds), batch)]
     bar = tqdm(total=len(seeds), desc=f"{method} stage {stage} noise {noise}", unit="task", disable=not progress)
     results: list[list[EpisodeResult]] = [None] * len(chunks)
-    jobs = [(stage, c, num_objects, noise) for c in chunks]
+    jobs = [(stage, c, num_objects, noise, world) for c in chunks]
     if backend == "ray":
         results = _run_tasks_ray(method, weights, jobs, max(1, workers), ray_address, bar)
     elif workers <= 1:

@@ -1,0 +1,31 @@
+"""Task object-count ranges, the MuJoCo execution world and --objects parsing in occrl eval."""
+
+import pytest
+
+from occrl.cli import main
+from occrl.eval.runner import EVAL_SEED_BASE, run_tasks, task_object_count, task_scenes
+from occrl.eval.sweep import noise_sweep_objects
+
+SEEDS = list(range(EVAL_SEED_BASE, EVAL_SEED_BASE + 40))
+
+
+def test_object_count_ranges_are_drawn_per_task_seed():
+    scenes = task_scenes(2, SEEDS, (1, 10))
+    counts = [len(s) for s in scenes]
+    assert counts == [task_object_count(s, 1, 10) for s in SEEDS]
+    assert counts == [noise_sweep_objects(s) for s in SEEDS]  # the noise sweep's tasks
+    assert min(counts) >= 1 and max(counts) <= 10 and len(set(counts)) > 3
+    with pytest.raises(ValueError, match="low <= high"):
+        task_scenes(2, SEEDS[:1], (5, 2))
+
+
+@pytest.mark.parametrize("bad", ["0", "0-3", "7-2", "many"])
+def test_bad_object_counts_are_refused(bad, capsys):
+    assert main(["eval", "--method", "scripted", "--objects", bad, "--tasks", "1", "--no-progress"]) == 2
+    assert "--objects must be" in capsys.readouterr().err
+
+
+def test_scripted_retrieves_a_lone_target_in_the_mujoco_world():
+    pytest.importorskip("dm_control")
+    [result] = run_tasks("scripted", 2, SEEDS[:1], num_objects=1, progress=False, world="mujoco")
+    assert result.objects == 1 and result.success and not result.dropped
