@@ -24,7 +24,13 @@ __all__ = [
 
 
 def convex_hull(points: np.ndarray) -> np.ndarray:
-    """Counter-clockwise convex hull (Andrew's monotone chain) without collinear points."""
+    """Counter-clockwise convex hull (Andrew's monotone chain) without collinear points.
+
+    Examples:
+        >>> from occrl.envs.geometry import convex_hull
+        >>> convex_hull([[0, 0], [1, 0], [1, 1], [0, 1], [0.5, 0.5]]).tolist()  # interior point dropped
+        [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]
+    """
     pts = sorted(set(map(tuple, np.asarray(points, dtype=float).tolist())))
     if len(pts) <= 2:
         return np.asarray(pts, dtype=float).reshape(-1, 2)
@@ -46,13 +52,28 @@ def convex_hull(points: np.ndarray) -> np.ndarray:
 
 
 def polygon_area(vertices: np.ndarray) -> float:
-    """Signed area (positive for counter-clockwise order)."""
+    """Signed area (positive for counter-clockwise order).
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.geometry import polygon_area
+        >>> square = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=float)
+        >>> polygon_area(square), polygon_area(square[::-1])
+        (1.0, -1.0)
+    """
     x, y = vertices[:, 0], vertices[:, 1]
     return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
 
 
 def polygon_centroid(vertices: np.ndarray) -> np.ndarray:
-    """Area centroid of a simple polygon."""
+    """Area centroid of a simple polygon.
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.geometry import polygon_centroid
+        >>> polygon_centroid(np.array([[0, 0], [2, 0], [2, 1], [0, 1]], dtype=float)).tolist()
+        [1.0, 0.5]
+    """
     x, y = vertices[:, 0], vertices[:, 1]
     xn, yn = np.roll(x, -1), np.roll(y, -1)
     c = x * yn - xn * y
@@ -61,7 +82,15 @@ def polygon_centroid(vertices: np.ndarray) -> np.ndarray:
 
 
 def is_convex_ccw(vertices: np.ndarray, tol: float = 1e-12) -> bool:
-    """True when the vertices form a strictly convex polygon in counter-clockwise order."""
+    """True when the vertices form a strictly convex polygon in counter-clockwise order.
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.geometry import is_convex_ccw
+        >>> square = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=float)
+        >>> is_convex_ccw(square), is_convex_ccw(square[::-1])  # clockwise order is rejected
+        (True, False)
+    """
     v = np.asarray(vertices, dtype=float)
     if v.ndim != 2 or v.shape[1] != 2 or len(v) < 3:
         return False
@@ -77,6 +106,12 @@ def min_width(vertices: np.ndarray) -> float:
     For a convex polygon the minimum is attained with one line through an edge, so it is the
     smallest over edges of the largest vertex distance to that edge's line. This is the narrowest
     opening a parallel gripper needs to hold it.
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.geometry import min_width
+        >>> min_width(np.array([[0, 0], [0.06, 0], [0.06, 0.02], [0, 0.02]]))  # a 6 x 2 cm box
+        0.02
     """
     v = np.asarray(vertices, dtype=float)
     e = np.roll(v, -1, axis=0) - v
@@ -87,7 +122,14 @@ def min_width(vertices: np.ndarray) -> float:
 
 
 def transform_points(points: np.ndarray, pose) -> np.ndarray:
-    """Points from a local frame to the frame in which ``pose`` = (x, y, theta) is given."""
+    """Points from a local frame to the frame in which ``pose`` = (x, y, theta) is given.
+
+    Examples:
+        >>> import math
+        >>> from occrl.envs.geometry import transform_points
+        >>> transform_points([[1.0, 0.0]], (0.5, 0.0, math.pi / 2)).round(3).tolist()
+        [[0.5, 1.0]]
+    """
     x, y, th = float(pose[0]), float(pose[1]), float(pose[2])
     c, s = math.cos(th), math.sin(th)
     p = np.asarray(points, dtype=float)
@@ -99,7 +141,16 @@ def transform_points(points: np.ndarray, pose) -> np.ndarray:
 
 def transform_polygons(vertices: np.ndarray, poses: np.ndarray) -> np.ndarray:
     """Batched :func:`transform_points`: vertices (..., V, 2) in their objects' frames, poses
-    (..., 3) -> (..., V, 2) in the frame the poses are given in."""
+    (..., 3) -> (..., V, 2) in the frame the poses are given in.
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.geometry import transform_polygons
+        >>> square = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=float)
+        >>> out = transform_polygons(np.stack([square, square]), np.array([[0, 0, 0], [2, 0, 0]]))
+        >>> out.shape, out[1, 0].tolist()
+        ((2, 4, 2), [2.0, 0.0])
+    """
     poses = np.asarray(poses, dtype=float)
     c, s = np.cos(poses[..., 2])[..., None], np.sin(poses[..., 2])[..., None]
     x = c * vertices[..., 0] - s * vertices[..., 1] + poses[..., 0, None]
@@ -121,12 +172,29 @@ def polygons_overlap(a: np.ndarray, b: np.ndarray, clearance: float = 0.0) -> bo
 
     Returns True when the polygons intersect or come closer than ``clearance`` along every
     edge normal (a conservative clearance test).
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.geometry import polygons_overlap
+        >>> square = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=float)
+        >>> polygons_overlap(square, square + [0.5, 0]), polygons_overlap(square, square + [1.1, 0])
+        (True, False)
+        >>> polygons_overlap(square, square + [1.1, 0], clearance=0.2)  # closer than 0.2
+        True
     """
     return not (_separated_along_edges(a, b, clearance) or _separated_along_edges(b, a, clearance))
 
 
 def point_in_convex_polygon(points: np.ndarray, vertices: np.ndarray) -> np.ndarray:
-    """Boolean mask of which ``points`` (..., 2) lie inside the convex CCW polygon."""
+    """Boolean mask of which ``points`` (..., 2) lie inside the convex CCW polygon.
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.geometry import point_in_convex_polygon
+        >>> square = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=float)
+        >>> point_in_convex_polygon([[0.5, 0.5], [2.0, 2.0]], square).tolist()
+        [True, False]
+    """
     v = np.asarray(vertices, dtype=float)
     e = np.roll(v, -1, axis=0) - v
     p = np.asarray(points, dtype=float)[..., None, :] - v  # (..., n, 2)

@@ -20,7 +20,19 @@ __all__ = ["detected_polygons", "observation_from_detections"]
 
 def detected_polygons(obs: TensorDictBase) -> list[tuple[list[np.ndarray], list[bool]]]:
     """For each element of a flat batch of observations: the detected objects' shelf-frame
-    polygons and which of them is the target (its type id equals ``"target_type"``)."""
+    polygons and which of them is the target (its type id equals ``"target_type"``).
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.perception import detected_polygons, observation_from_detections
+        >>> box = [[-0.02, -0.02], [0.02, -0.02], [0.02, 0.02], [-0.02, 0.02]]
+        >>> obs = observation_from_detections((0.0, -0.1, 0.0), 0.085,
+        ...     [{"type_id": 3, "pose": (0.1, 0.2, 0.0), "vertices": box}], target_type=3,
+        ...     target_vertices=np.array(box))
+        >>> (polygons, is_target), = detected_polygons(obs)
+        >>> polygons[0][0].round(3).tolist(), is_target
+        ([0.08, 0.18], [True])
+    """
     det = obs.get(("objects", "detected")).cpu().numpy()
     if det.ndim == 1:
         raise ValueError("expected a batch of observations with shape [B]; add a batch dimension")

@@ -21,7 +21,17 @@ def observation_transforms(
     forward_offset: float = DEFAULT_FORWARD_OFFSET,
     heatmap_target: bool = True,
 ) -> list:
-    """The transforms that turn detections into the network input (and its heat-map label)."""
+    """The transforms that turn detections into the network input (and its heat-map label).
+
+    Examples:
+        >>> from torchrl.envs import Compose, TransformedEnv
+        >>> from occrl.envs import ShelfEnv, observation_transforms
+        >>> [type(t).__name__ for t in observation_transforms()]
+        ['OcclusionRender', 'RobotCentricCrop', 'HeatmapTarget']
+        >>> env = TransformedEnv(ShelfEnv(batch_size=1, seed=0), Compose(*observation_transforms(heatmap_target=False)))
+        >>> env.reset()["pixels"].shape
+        torch.Size([1, 3, 64, 64])
+    """
     ts = [OcclusionRender(), RobotCentricCrop(window=window, size=size, forward_offset=forward_offset)]
     if heatmap_target:
         ts.append(HeatmapTarget(window=window, size=size, forward_offset=forward_offset))

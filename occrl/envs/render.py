@@ -46,7 +46,17 @@ _WALLS = wall_polygons()
 @dataclass(frozen=True)
 class Canvas:
     """A shelf-frame raster: ``resolution`` metres per pixel over ``[x0, x1] x [y0, y1]``.
-    Row 0 is the far side (largest y); columns run along +x."""
+    Row 0 is the far side (largest y); columns run along +x.
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.render import Canvas
+        >>> canvas = Canvas(x0=0.0, x1=1.0, y0=0.0, y1=0.5, resolution=0.1)
+        >>> canvas.shape  # (rows, columns)
+        (5, 10)
+        >>> canvas.to_pixels(np.array([0.15, 0.25])).round(6).tolist()  # (col, row) of a pixel centre
+        [1.0, 2.0]
+    """
 
     x0: float = -1.0
     x1: float = 1.0
@@ -187,7 +197,16 @@ def render_true_scene(
     is_target: Sequence[bool],
     canvas: Canvas = DEFAULT_CANVAS,
 ) -> np.ndarray:
-    """The ground-truth top-down view (every object, no occlusion) as a label map, for people."""
+    """The ground-truth top-down view (every object, no occlusion) as a label map, for people.
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.render import LABELS, SHELF_VIEW, render_true_scene
+        >>> box = np.array([[-0.02, 0.18], [0.02, 0.18], [0.02, 0.22], [-0.02, 0.22]])
+        >>> labels = render_true_scene(np.array([0.0, -0.1, 0.0]), 0.085, [box], [True], canvas=SHELF_VIEW)
+        >>> labels.shape, bool((labels == LABELS["target"]).any()), bool((labels == LABELS["clutter"]).any())
+        ((288, 256), True, False)
+    """
     img = Image.new("L", (canvas.shape[1], canvas.shape[0]), LABELS["observable"])
     padded = _pad(object_polygons, C.MAX_VERTICES) if len(object_polygons) else np.zeros((0, C.MAX_VERTICES, 2))
     _draw_shelf_and_bodies(ImageDraw.Draw(img), canvas, gripper_pose, opening, padded, [len(p) for p in object_polygons], is_target)
@@ -199,10 +218,26 @@ _PALETTE_CHANNELS = np.ascontiguousarray((PALETTE.astype(np.float32) / 255.0).T)
 
 def labels_to_pixels(labels: np.ndarray) -> torch.Tensor:
     """(B, S, S) labels -> (B, 3, S, S) float32 colours in [0, 1], the network input.
-    (numpy fancy indexing: ~10x faster than the torch equivalent on CPU.)"""
+    (numpy fancy indexing: ~10x faster than the torch equivalent on CPU.)
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.render import LABELS, labels_to_pixels
+        >>> px = labels_to_pixels(np.full((2, 64, 64), LABELS["occluded"], dtype=np.uint8))
+        >>> px.shape, px.dtype, float(px.min())  # occluded space is white
+        (torch.Size([2, 3, 64, 64]), torch.float32, 1.0)
+    """
     return torch.from_numpy(np.ascontiguousarray(_PALETTE_CHANNELS[:, labels].swapaxes(0, 1)))
 
 
 def labels_to_rgb(labels: np.ndarray) -> np.ndarray:
-    """(..., H, W) labels -> (..., H, W, 3) uint8 colours."""
+    """(..., H, W) labels -> (..., H, W, 3) uint8 colours.
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.render import LABELS, labels_to_rgb
+        >>> rgb = labels_to_rgb(np.array([[LABELS["observable"], LABELS["target"]]], dtype=np.uint8))
+        >>> rgb.shape, rgb[0, 1].tolist()
+        ((1, 2, 3), [30, 200, 30])
+    """
     return PALETTE[labels]

@@ -62,7 +62,15 @@ def robot_centric_pixels(
     forward_offset: float = DEFAULT_FORWARD_OFFSET,
 ) -> np.ndarray:
     """The inverse map: shelf-frame ``points`` (B, K, 2) to continuous (col, row) pixel
-    coordinates of the window of each gripper pose (B, 3); integers are pixel centres."""
+    coordinates of the window of each gripper pose (B, 3); integers are pixel centres.
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.robot_frame import robot_centric_pixels
+        >>> # the window's centre lies forward_offset (0.15 m) ahead of the gripper
+        >>> robot_centric_pixels(np.array([[[0.0, 0.15]]]), np.zeros((1, 3))).round(6).tolist()
+        [[[31.5, 31.5]]]
+    """
     poses = np.asarray(gripper_poses, dtype=float)
     d = np.asarray(points, dtype=float) - poses[:, None, :2]
     c, s = np.cos(poses[:, 2])[:, None], np.sin(poses[:, 2])[:, None]

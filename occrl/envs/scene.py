@@ -53,6 +53,14 @@ class SceneObject:
 
     ``pose`` is the pose of the centroid frame in the shelf frame. ``type_id`` (>= 1) names the
     shape: detections report it and the planner recreates the shape from it (a task prior).
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs import SceneObject
+        >>> box = np.array([[-0.02, -0.02], [0.02, -0.02], [0.02, 0.02], [-0.02, 0.02]])
+        >>> obj = SceneObject(type_id=1, vertices=box, pose=(0.1, 0.2, 0.0), is_target=True)
+        >>> obj.world_vertices()[0].round(3).tolist()
+        [0.08, 0.18]
     """
 
     type_id: int
@@ -66,7 +74,20 @@ class SceneObject:
 
 @dataclass(frozen=True)
 class Scene:
-    """A shelf task: objects (exactly one target) and the gripper's start pose (x, y, theta)."""
+    """A shelf task: objects (exactly one target) and the gripper's start pose (x, y, theta).
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs import Scene, SceneObject
+        >>> box = np.array([[-0.02, -0.02], [0.02, -0.02], [0.02, 0.02], [-0.02, 0.02]])
+        >>> scene = Scene(objects=(SceneObject(1, box, (0.1, 0.2, 0.0), is_target=True),))
+        >>> len(scene), scene.target_index, scene.gripper_pose
+        (1, 0, (0.0, -0.1, 0.0))
+        >>> Scene(objects=(SceneObject(1, box, (0.1, 0.2, 0.0)),))
+        Traceback (most recent call last):
+            ...
+        ValueError: a scene needs exactly one target (is_target=True), got 0
+    """
 
     objects: tuple[SceneObject, ...]
     gripper_pose: tuple[float, float, float] = DEFAULT_GRIPPER_POSE
@@ -286,7 +307,16 @@ def _validate_gripper(gripper_pose, objects: Sequence[SceneObject]) -> None:
 # ---------------------------------------------------------------------- sampling
 def random_convex_polygon(rng: np.random.Generator) -> np.ndarray:
     """A random convex polygon of 3-8 vertices, 3-9 cm across, graspable from some side,
-    centred on its centroid."""
+    centred on its centroid.
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.geometry import is_convex_ccw, polygon_centroid
+        >>> from occrl.envs.scene import random_convex_polygon
+        >>> poly = random_convex_polygon(np.random.default_rng(0))
+        >>> is_convex_ccw(poly), 3 <= len(poly) <= 8, bool(np.allclose(polygon_centroid(poly), 0.0))
+        (True, True, True)
+    """
     while True:
         n = int(rng.integers(C.MIN_VERTICES, C.MAX_VERTICES + 1))
         radius = rng.uniform(C.MIN_OBJECT_RADIUS, C.MAX_OBJECT_RADIUS)

@@ -27,7 +27,15 @@ _WALLS = wall_polygons()
 
 
 def pad_polygon(vertices: np.ndarray, size: int = MAX_POLY_VERTICES) -> np.ndarray:
-    """Pad a polygon to ``size`` vertices by repeating its first vertex (zero-length edges)."""
+    """Pad a polygon to ``size`` vertices by repeating its first vertex (zero-length edges).
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.shelf_env import pad_polygon
+        >>> padded = pad_polygon(np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]))
+        >>> padded.shape, padded.dtype, padded[-1].tolist()
+        ((8, 2), dtype('float32'), [0.0, 0.0])
+    """
     out = np.empty((size, 2), dtype=np.float32)
     out[: len(vertices)] = vertices
     out[len(vertices):] = vertices[0]

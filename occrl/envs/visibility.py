@@ -24,7 +24,13 @@ __all__ = ["visible_fractions", "detect", "camera_pose", "angular_extents"]
 
 
 def camera_pose(gripper_pose: np.ndarray) -> np.ndarray:
-    """The camera sits at the gripper frame's origin looking along its +y axis."""
+    """The camera sits at the gripper frame's origin looking along its +y axis.
+
+    Examples:
+        >>> from occrl.envs.visibility import camera_pose
+        >>> camera_pose([0.0, -0.1, 0.0]).tolist()
+        [0.0, -0.1, 0.0]
+    """
     return np.asarray(gripper_pose, dtype=float)
 
 
@@ -47,7 +53,16 @@ def angular_extents(polys: np.ndarray, cam: np.ndarray, with_tangents: bool = Fa
     """Bearing interval ``[lo, hi]`` of each padded polygon seen from ``cam`` = (x, y, heading),
     in radians relative to the camera axis, and whether the camera is inside the polygon.
     With ``with_tangents`` also the indices of the vertices at ``lo`` and ``hi`` (the
-    silhouette vertices, where shadows start)."""
+    silhouette vertices, where shadows start).
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.visibility import angular_extents
+        >>> sq = lambda x, y, r: np.array([[x-r, y-r], [x+r, y-r], [x+r, y+r], [x-r, y+r]])
+        >>> lo, hi, inside = angular_extents(np.stack([sq(0, 0.2, 0.05), sq(0, 0, 0.5)]), np.zeros(3))
+        >>> np.degrees([lo[0], hi[0]]).round(1).tolist(), inside.tolist()
+        ([-18.4, 18.4], [False, True])
+    """
     cx, cy, th = (float(v) for v in cam)
     dx, dy = polys[..., 0] - cx, polys[..., 1] - cy
     mx, my = dx.mean(-1, keepdims=True), dy.mean(-1, keepdims=True)  # towards the polygon's centre
@@ -140,5 +155,12 @@ def visible_fractions(
 
 
 def detect(fractions: np.ndarray, threshold: float = C.DETECTION_THRESHOLD) -> np.ndarray:
-    """Detected means strictly more than ``threshold`` of the object is visible."""
+    """Detected means strictly more than ``threshold`` of the object is visible.
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.visibility import detect
+        >>> detect(np.array([0.3, 0.5, 0.51])).tolist()  # strictly more than half
+        [False, False, True]
+    """
     return fractions > threshold

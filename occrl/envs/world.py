@@ -50,7 +50,14 @@ _NO_GROUP = pymunk.ShapeFilter()
 
 
 def gripper_polygons(opening: float) -> list[np.ndarray]:
-    """Gripper outline in its own frame: palm, left finger, right finger, forearm (CCW boxes)."""
+    """Gripper outline in its own frame: palm, left finger, right finger, forearm (CCW boxes).
+
+    Examples:
+        >>> from occrl.envs.world import gripper_polygons
+        >>> palm, left, right, forearm = gripper_polygons(0.085)
+        >>> round(float(right[:, 0].min() - left[:, 0].max()), 3)  # the gap between the fingers
+        0.085
+    """
     h = opening / 2.0
     return [
         _box(-C.PALM_WIDTH / 2, -C.PALM_DEPTH, C.PALM_WIDTH / 2, 0.0),
@@ -61,7 +68,14 @@ def gripper_polygons(opening: float) -> list[np.ndarray]:
 
 
 def wall_polygons() -> list[np.ndarray]:
-    """Left, right and back wall of the shelf in the shelf frame."""
+    """Left, right and back wall of the shelf in the shelf frame.
+
+    Examples:
+        >>> from occrl.envs.world import wall_polygons
+        >>> left, right, back = wall_polygons()
+        >>> float(back[:, 1].min())  # the back wall starts at the shelf depth
+        0.35
+    """
     w, d, t = C.SHELF_HALF_WIDTH, C.SHELF_DEPTH, C.WALL_THICKNESS
     return [
         _box(-w - t, 0.0, -w, d + t),
@@ -82,7 +96,16 @@ def _limited(constraint: pymunk.Constraint, max_bias: float, max_force: float) -
 
 
 def inverse_pose(pose) -> tuple[float, float, float]:
-    """The pose that maps shelf-frame points into the frame of ``pose``."""
+    """The pose that maps shelf-frame points into the frame of ``pose``.
+
+    Examples:
+        >>> import math
+        >>> from occrl.envs.geometry import transform_points
+        >>> from occrl.envs.world import inverse_pose
+        >>> pose = (0.1, 0.2, math.pi / 2)
+        >>> transform_points([[0.1, 0.2]], inverse_pose(pose)).round(6).tolist()  # the pose's origin
+        [[0.0, 0.0]]
+    """
     x, y, th = (float(v) for v in pose)
     c, s = math.cos(th), math.sin(th)
     return (-(c * x + s * y), -(-s * x + c * y), -th)
@@ -92,7 +115,17 @@ def grasp_candidate(gripper_pose, opening: float, polygons: list[np.ndarray]) ->
     """The grasp rule. Closing fingers of the given ``opening`` hold an object when it is the only
     one between them, lies across the gripper axis, has its centre within the finger length and
     is no wider than the opening. Returns its index (or None) and, for every object that reaches
-    between the fingers, its polygon in the gripper frame."""
+    between the fingers, its polygon in the gripper frame.
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.world import grasp_candidate
+        >>> box = np.array([[-0.02, 0.005], [0.02, 0.005], [0.02, 0.045], [-0.02, 0.045]])
+        >>> grasp_candidate((0.0, 0.0, 0.0), 0.085, [box])[0]  # between the fingers
+        0
+        >>> grasp_candidate((0.0, 0.0, 0.0), 0.085, [box + [0.3, 0.0]])  # out of reach
+        (None, {})
+    """
     h = opening / 2.0
     band = transform_points(np.array([[-h, 0.0], [h, 0.0], [h, C.FINGER_LENGTH], [-h, C.FINGER_LENGTH]]), gripper_pose)
     inv = inverse_pose(gripper_pose)
@@ -108,7 +141,16 @@ def grasp_candidate(gripper_pose, opening: float, polygons: list[np.ndarray]) ->
 
 @dataclass(frozen=True)
 class StepOutcome:
-    """What one action did. ``dropped`` lists object indices that left the shelf."""
+    """What one action did. ``dropped`` lists object indices that left the shelf.
+
+    Examples:
+        >>> from occrl.envs import Scene, ShelfWorld, StepOutcome
+        >>> StepOutcome(reward=-1.0, retrieved=False, dropped=(2,)).terminal
+        True
+        >>> out = ShelfWorld(Scene.sample(stage=1, seed=0)).step([1.0, 0.0, 0.0, -1.0])
+        >>> out.retrieved, out.dropped, out.terminal
+        (False, (), False)
+    """
 
     reward: float
     retrieved: bool

@@ -80,7 +80,17 @@ def _obs_panel(step: TensorDictBase, heatmap: np.ndarray | None = None, decision
 
 def frame(step: TensorDictBase, caption: str = "", heatmap: np.ndarray | None = None, decision=None) -> np.ndarray:
     """One picture of one step (a tensordict with no batch dims): true scene | observation, with
-    the heat-map's contours, the planner's root states (weights; orange = chosen) and action."""
+    the heat-map's contours, the planner's root states (weights; orange = chosen) and action.
+
+    Examples:
+        >>> from occrl.baselines import ScriptedRetriever
+        >>> from occrl.envs import make_env
+        >>> from occrl.eval.film import frame
+        >>> rollout = make_env(batch_size=1, seed=0, heatmap_target=False).rollout(1, ScriptedRetriever())
+        >>> picture = frame(rollout[0, 0], "step 0")
+        >>> picture.shape, picture.dtype
+        ((306, 518, 3), dtype('uint8'))
+    """
     left = _true_panel(step)
     right = _obs_panel(step, heatmap, decision)
     h = max(left.shape[0], right.shape[0]) + 18
@@ -97,7 +107,17 @@ def episode_frames(rollout: TensorDictBase, heatmaps: Sequence[np.ndarray] | Non
 
     With a planner's ``decisions`` (``HybridPlanner.decisions``, one per step), each frame also
     shows the heat-map contours, the root states and the chosen action (paper Fig. 3 and 6).
-    A ``"heatmap"`` entry in the rollout is drawn when ``heatmaps`` is not given."""
+    A ``"heatmap"`` entry in the rollout is drawn when ``heatmaps`` is not given.
+
+    Examples:
+        >>> from occrl.baselines import ScriptedRetriever
+        >>> from occrl.envs import make_env
+        >>> from occrl.eval.film import episode_frames
+        >>> rollout = make_env(batch_size=1, seed=0, heatmap_target=False).rollout(3, ScriptedRetriever())
+        >>> frames = episode_frames(rollout[0])  # one episode: batch dims [T]
+        >>> len(frames), frames[0].shape  # one per action and the final state
+        (4, (306, 518, 3))
+    """
     if rollout.batch_dims != 1:
         raise ValueError(f"expected one episode with batch dims [T], got batch size {tuple(rollout.batch_size)}")
     frames = []
@@ -166,6 +186,19 @@ def decision_panels(decision) -> list[np.ndarray]:
 
 
 def save_gif(frames: Sequence[np.ndarray], path: str | Path, fps: float = 4.0) -> Path:
+    """Write the frames as a looping animated GIF at ``fps`` frames per second; returns the path.
+
+    Examples:
+        >>> import os, tempfile
+        >>> from PIL import Image
+        >>> from occrl.baselines import ScriptedRetriever
+        >>> from occrl.envs import make_env
+        >>> from occrl.eval.film import episode_frames, save_gif
+        >>> rollout = make_env(batch_size=1, seed=0, heatmap_target=False).rollout(3, ScriptedRetriever())
+        >>> path = save_gif(episode_frames(rollout[0]), os.path.join(tempfile.mkdtemp(), "episode.gif"))
+        >>> Image.open(path).n_frames
+        4
+    """
     import imageio.v2 as imageio
 
     path = Path(path)
@@ -176,7 +209,20 @@ def save_gif(frames: Sequence[np.ndarray], path: str | Path, fps: float = 4.0) -
 
 
 def save_film_strip(frames: Sequence[np.ndarray], path: str | Path, columns: int = 4, max_frames: int = 12) -> Path:
-    """A grid of evenly spaced frames (first and last always included) as one PNG."""
+    """A grid of evenly spaced frames (first and last always included) as one PNG.
+
+    Examples:
+        >>> import os, tempfile
+        >>> from PIL import Image
+        >>> from occrl.baselines import ScriptedRetriever
+        >>> from occrl.envs import make_env
+        >>> from occrl.eval.film import episode_frames, save_film_strip
+        >>> rollout = make_env(batch_size=1, seed=0, heatmap_target=False).rollout(3, ScriptedRetriever())
+        >>> frames = episode_frames(rollout[0])  # 4 frames of 306 x 518 pixels
+        >>> path = save_film_strip(frames, os.path.join(tempfile.mkdtemp(), "strip.png"), columns=2)
+        >>> Image.open(path).size  # (width, height) of a 2 x 2 grid with 4-pixel gaps
+        (1044, 620)
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     n = len(frames)

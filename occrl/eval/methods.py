@@ -18,6 +18,16 @@ _HYBRID = {"hybrid-2x2": (2, 2, False), "hybrid-4x4": (4, 4, False), "hybrid-6x6
 
 @dataclass
 class Method:
+    """A named decision maker: its policy, the env transforms it needs (``primers``), the exploration
+    type to run it under and the network it was built from (None without one).
+
+    Examples:
+        >>> from occrl.eval.methods import make_method
+        >>> m = make_method("scripted")
+        >>> m.name, type(m.policy).__name__, m.primers, m.network
+        ('scripted', 'ScriptedRetriever', [], None)
+    """
+
     name: str
     policy: object
     primers: list = field(default_factory=list)
@@ -36,7 +46,18 @@ def make_method(name: str, weights: str | Path | None = None, seed: int = 0) -> 
     """``hybrid-MxH`` / ``hybrid-lim-4x4`` (planner on the full net), ``greedy`` / ``stochastic``
     (net without heat-map head: mean / sampled action), ``stochastic-gen`` (full net, sampled),
     ``hierarchical`` (Alg. 3 with OMPL; literal Search), ``scripted`` (privileged). ``weights``
-    overrides the shipped net."""
+    overrides the shipped net.
+
+    Examples:
+        >>> from occrl.eval.methods import make_method
+        >>> m = make_method("hybrid-2x2")  # loads the shipped net
+        >>> type(m.policy).__name__, (m.policy.m, m.policy.h), len(m.primers), m.network
+        ('HybridPlanner', (2, 2), 1, 'occnet')
+        >>> make_method("random")  # doctest: +ELLIPSIS
+        Traceback (most recent call last):
+            ...
+        ValueError: unknown method 'random'; available: ['hybrid-2x2', ..., 'scripted']
+    """
     if name in _HYBRID:
         from occrl.planners import HybridPlanner
 

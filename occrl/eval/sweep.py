@@ -35,7 +35,13 @@ SCENE_STAGE = 2  # uniform target placement
 
 
 def noise_sweep_objects(seed: int) -> int:
-    """Number of objects of a noise-sweep task (1 to 10, fixed by the task seed)."""
+    """Number of objects of a noise-sweep task (1 to 10, fixed by the task seed).
+
+    Examples:
+        >>> from occrl.eval.sweep import noise_sweep_objects
+        >>> [noise_sweep_objects(s) for s in range(5)]
+        [8, 8, 7, 6, 9]
+    """
     return int(np.random.default_rng([int(seed), 7]).integers(1, 11))
 
 
@@ -73,7 +79,16 @@ def run_sweep(
     ray_address: str | None = None,
 ) -> Path:
     """Run (or resume) the sweep; returns the output folder. ``backend="ray"`` spreads each
-    point's tasks over Ray actors (see :func:`occrl.eval.runner.run_tasks`)."""
+    point's tasks over Ray actors (see :func:`occrl.eval.runner.run_tasks`).
+
+    Examples:
+        >>> import os, tempfile
+        >>> from occrl.eval.sweep import run_sweep
+        >>> out = run_sweep(["scripted"], tempfile.mkdtemp(), tasks=1, sweeps=("clutter",),
+        ...                 values={"clutter": [1.0]}, progress=False)
+        >>> sorted(os.listdir(out)), os.listdir(out / "points")
+        (['points', 'results.csv', 'results.json', 'sweep.png'], ['scripted__clutter__1.json'])
+    """
     from occrl.eval.methods import PLANNERS
 
     out = Path(out)
@@ -103,6 +118,23 @@ def _points(out: Path) -> list[dict]:
 
 
 def summarize_sweep(out: str | Path) -> list[dict]:
+    """Collect the cached points under ``out/points/`` into ``results.json`` and ``results.csv``
+    (one row per method, sweep and value, with the success rate's 95 % interval); returns the rows.
+
+    Examples:
+        >>> import json, tempfile
+        >>> from pathlib import Path
+        >>> from occrl.eval.runner import EpisodeResult, summarize
+        >>> from occrl.eval.sweep import summarize_sweep
+        >>> out = Path(tempfile.mkdtemp())
+        >>> (out / "points").mkdir()
+        >>> episodes = [EpisodeResult(seed=0, objects=1, success=True, dropped=False, actions=9, seconds=0.3)]
+        >>> point = {"method": "scripted", "sweep": "clutter", "value": 1.0, **summarize(episodes)}
+        >>> _ = (out / "points" / "scripted__clutter__1.json").write_text(json.dumps(point))
+        >>> row, = summarize_sweep(out)
+        >>> row["method"], row["success_rate"], row["mean_actions"], (out / "results.csv").exists()
+        ('scripted', 1.0, 9.0, True)
+    """
     out = Path(out)
     rows = []
     for p in _points(out):
@@ -119,7 +151,22 @@ def summarize_sweep(out: str | Path) -> list[dict]:
 
 
 def plot_sweep(out: str | Path) -> Path:
-    """Fig. 5 layout: columns success rate, time per task, actions per task; rows clutter, noise."""
+    """Fig. 5 layout: columns success rate, time per task, actions per task; rows clutter, noise.
+
+    Examples:
+        >>> import json, tempfile
+        >>> from pathlib import Path
+        >>> from occrl.eval.runner import EpisodeResult, summarize
+        >>> from occrl.eval.sweep import plot_sweep
+        >>> out = Path(tempfile.mkdtemp())
+        >>> (out / "points").mkdir()
+        >>> episodes = [EpisodeResult(seed=0, objects=1, success=True, dropped=False, actions=9, seconds=0.3)]
+        >>> point = {"method": "scripted", "sweep": "clutter", "value": 1.0, **summarize(episodes)}
+        >>> _ = (out / "points" / "scripted__clutter__1.json").write_text(json.dumps(point))
+        >>> path = plot_sweep(out)
+        >>> path.name, path.stat().st_size > 0
+        ('sweep.png', True)
+    """
     from matplotlib.figure import Figure  # no pyplot: leaves the caller's backend (e.g. a notebook's) alone
 
     out = Path(out)

@@ -13,7 +13,15 @@ MIN_SCALE = 1e-3  # keeps log-probabilities finite when the sigmoid saturates
 
 
 def mlp(in_features: int, hidden: Sequence[int], out_features: int) -> nn.Sequential:
-    """Dense layers with leaky ReLU between them and a linear output."""
+    """Dense layers with leaky ReLU between them and a linear output.
+
+    Examples:
+        >>> import torch
+        >>> from occrl.modules.heads import mlp
+        >>> net = mlp(10, (32, 16), 2)  # Linear, LeakyReLU, Linear, LeakyReLU, Linear
+        >>> len(net), net(torch.zeros(3, 10)).shape
+        (5, torch.Size([3, 2]))
+    """
     layers: list[nn.Module] = []
     f = in_features
     for h in hidden:
@@ -44,7 +52,14 @@ class PolicyHead(nn.Module):
 
 
 class ValueHead(nn.Module):
-    """Dense (128, 64) -> 1, linear output: the expected return of the observation history."""
+    """Dense (128, 64) -> 1, linear output: the expected return of the observation history.
+
+    Examples:
+        >>> import torch
+        >>> from occrl.modules import ValueHead
+        >>> ValueHead()(torch.zeros(5, 128)).shape
+        torch.Size([5, 1])
+    """
 
     def __init__(self, in_features: int = 128, hidden: Sequence[int] = (128, 64)) -> None:
         super().__init__()

@@ -30,7 +30,16 @@ __all__ = ["OccNetConfig", "OccNet", "make_occnet", "PRESETS"]
 
 @dataclass(frozen=True)
 class OccNetConfig:
-    """Architecture of an OccNet. ``PRESETS["paper"]`` is the paper's (Sec. VI-B)."""
+    """Architecture of an OccNet. ``PRESETS["paper"]`` is the paper's (Sec. VI-B).
+
+    Examples:
+        >>> from occrl.modules import PRESETS, OccNetConfig
+        >>> PRESETS["paper"] == OccNetConfig()
+        True
+        >>> cfg = OccNetConfig(heatmap=False)
+        >>> cfg.lstm_hidden, cfg.to_dict()["heatmap"]
+        (128, False)
+    """
 
     conv_channels: tuple[int, ...] = (8, 8, 16)
     image_size: int = 64
@@ -59,6 +68,18 @@ class OccNet(nn.Module):
     * ``policy``: trunk + actor, a recurrent ``ProbabilisticActor`` for ``env.rollout`` and collectors.
     * ``value``: trunk + critic.
     * ``heatmap``: trunk + heat-map head.
+
+    Examples:
+        >>> import torch
+        >>> from tensordict import TensorDict
+        >>> from occrl.modules import OccNet, OccNetConfig
+        >>> net = OccNet(OccNetConfig()).eval()
+        >>> td = TensorDict({"pixels": torch.zeros(2, 3, 64, 64), "is_init": torch.ones(2, 1, dtype=torch.bool)},
+        ...                 batch_size=[2])
+        >>> net.value(td)["state_value"].shape, net.heatmap(td)["heatmap"].shape
+        (torch.Size([2, 1]), torch.Size([2, 1, 64, 64]))
+        >>> OccNet(OccNetConfig(heatmap=False)).heatmap is None
+        True
     """
 
     def __init__(self, config: OccNetConfig) -> None:

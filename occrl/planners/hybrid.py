@@ -32,7 +32,15 @@ __all__ = ["HybridPlanner", "select_root", "Decision"]
 
 
 def select_root(weights: np.ndarray, returns: np.ndarray) -> int:
-    """Index of the root whose action is executed: argmax of ``w x (R - L)``, L = min(R) - 1."""
+    """Index of the root whose action is executed: argmax of ``w x (R - L)``, L = min(R) - 1.
+
+    Examples:
+        >>> from occrl.planners import select_root
+        >>> select_root([0.5, 0.5], [-3.0, -5.0])  # equal weights: the better return
+        0
+        >>> select_root([0.1, 0.9], [-3.0, -4.0])  # a much likelier root wins a small return gap
+        1
+    """
     w = np.asarray(weights, float)
     r = np.asarray(returns, float)
     return int(np.argmax(w * (r - (r.min() - 1.0))))
@@ -40,7 +48,20 @@ def select_root(weights: np.ndarray, returns: np.ndarray) -> int:
 
 @dataclass
 class Decision:
-    """What one planning step did, for pictures and analysis."""
+    """What one planning step did, for pictures and analysis.
+
+    Examples:
+        >>> from occrl.envs import make_env
+        >>> from occrl.modules import make_occnet
+        >>> from occrl.planners import HybridPlanner
+        >>> net = make_occnet("paper")
+        >>> env = make_env(batch_size=1, seed=0, heatmap_target=False).append_transform(net.make_primer())
+        >>> planner = HybridPlanner(net, m=2, h=2)
+        >>> td = planner(env.reset())
+        >>> d = planner.decisions[-1]
+        >>> d.action.shape, d.result.returns.shape, d.chosen_root, d.heatmap.shape
+        ((4,), (1, 2), 0, (64, 64))
+    """
 
     roots: list[Root]
     result: RHPResult

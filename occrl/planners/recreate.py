@@ -24,7 +24,17 @@ _WALLS = wall_polygons()
 
 @dataclass(frozen=True)
 class RecreatedState:
-    """What the robot knows now: detected objects, gripper, and the target's type and shape."""
+    """What the robot knows now: detected objects, gripper, and the target's type and shape.
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.planners import RecreatedState
+        >>> box = np.array([[-0.02, -0.02], [0.02, -0.02], [0.02, 0.02], [-0.02, 0.02]])
+        >>> state = RecreatedState(objects=(), gripper_pose=(0.0, -0.1, 0.0), opening=0.085, closed=False,
+        ...                        target_type=1, target_vertices=box)
+        >>> state.target_detected, state.polygons()
+        (False, [])
+    """
 
     objects: tuple[SceneObject, ...]
     gripper_pose: tuple[float, float, float]
@@ -42,7 +52,20 @@ class RecreatedState:
 
 
 def recreate(obs: TensorDictBase) -> RecreatedState:
-    """Recreate the known state from one observation (a tensordict without batch dims)."""
+    """Recreate the known state from one observation (a tensordict without batch dims).
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs import observation_from_detections
+        >>> from occrl.planners import recreate
+        >>> box = [[-0.02, -0.02], [0.02, -0.02], [0.02, 0.02], [-0.02, 0.02]]
+        >>> obs = observation_from_detections((0.0, -0.1, 0.0), 0.085,
+        ...     [{"type_id": 2, "pose": (0.1, 0.2, 0.0), "vertices": box}], target_type=1,
+        ...     target_vertices=np.array(box))
+        >>> state = recreate(obs[0])
+        >>> len(state.objects), state.objects[0].type_id, state.target_detected, state.closed
+        (1, 2, False, False)
+    """
     det = obs.get(("objects", "detected")).cpu().numpy().astype(bool)
     type_id = obs.get(("objects", "type_id")).cpu().numpy()
     pose = obs.get(("objects", "pose")).cpu().numpy().astype(float)
@@ -74,13 +97,33 @@ def target_fits(state: RecreatedState, pose) -> bool:
 
 
 def with_target(state: RecreatedState, pose) -> RecreatedState:
-    """The state with the target hypothesised at ``pose`` (for a heat-map root)."""
+    """The state with the target hypothesised at ``pose`` (for a heat-map root).
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.planners import RecreatedState, with_target
+        >>> box = np.array([[-0.02, -0.02], [0.02, -0.02], [0.02, 0.02], [-0.02, 0.02]])
+        >>> state = RecreatedState((), (0.0, -0.1, 0.0), 0.085, False, target_type=1, target_vertices=box)
+        >>> hypothesis = with_target(state, (-0.1, 0.2, 0.0))
+        >>> hypothesis.target_detected, len(hypothesis.objects), len(state.objects)  # the input is unchanged
+        (True, 1, 0)
+    """
     target = SceneObject(state.target_type, state.target_vertices, tuple(float(v) for v in pose), True)
     return replace(state, objects=state.objects + (target,))
 
 
 def make_world(state: RecreatedState) -> ShelfWorld:
-    """A nominal (noise-free) pymunk world of a recreated state, gripper and grasp included."""
+    """A nominal (noise-free) pymunk world of a recreated state, gripper and grasp included.
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.planners import RecreatedState, make_world, with_target
+        >>> box = np.array([[-0.02, -0.02], [0.02, -0.02], [0.02, 0.02], [-0.02, 0.02]])
+        >>> state = RecreatedState((), (0.0, -0.1, 0.0), 0.085, False, target_type=1, target_vertices=box)
+        >>> world = make_world(with_target(state, (-0.1, 0.2, 0.0)))
+        >>> world.gripper_pose().round(3).tolist(), world.object_poses().round(3).tolist()
+        ([0.0, -0.1, 0.0], [[-0.1, 0.2, 0.0]])
+    """
     world = ShelfWorld(Scene.unchecked(state.objects, state.gripper_pose))
     held = None
     if state.closed:

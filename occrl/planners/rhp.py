@@ -35,7 +35,17 @@ _WALLS = wall_polygons()
 
 
 def render_pixels(worlds: Sequence[ShelfWorld]) -> torch.Tensor:
-    """The network input each world's camera would give: (N, 3, 64, 64) in [0, 1]."""
+    """The network input each world's camera would give: (N, 3, 64, 64) in [0, 1].
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.planners import RecreatedState, make_world, render_pixels, with_target
+        >>> box = np.array([[-0.02, -0.02], [0.02, -0.02], [0.02, 0.02], [-0.02, 0.02]])
+        >>> state = RecreatedState((), (0.0, -0.1, 0.0), 0.085, False, target_type=1, target_vertices=box)
+        >>> pixels = render_pixels([make_world(with_target(state, (0.0, 0.2, 0.0)))])
+        >>> pixels.shape, float(pixels.min()) >= 0.0, float(pixels.max()) <= 1.0
+        (torch.Size([1, 3, 64, 64]), True, True)
+    """
     labels = []
     poses = []
     for w in worlds:
@@ -50,7 +60,18 @@ def render_pixels(worlds: Sequence[ShelfWorld]) -> torch.Tensor:
 
 
 class NetworkStepper:
-    """One LSTM step of an OccNet on a batch of images, through its TensorDict modules."""
+    """One LSTM step of an OccNet on a batch of images, through its TensorDict modules.
+
+    Examples:
+        >>> import torch
+        >>> from occrl.modules import make_occnet
+        >>> from occrl.planners.rhp import NetworkStepper
+        >>> stepper = NetworkStepper(make_occnet("paper"))
+        >>> h = c = torch.zeros(2, 1, 128)
+        >>> td, h, c = stepper.step(torch.zeros(2, 3, 64, 64), h, c)
+        >>> td["loc"].shape, h.shape, stepper.value(td).shape
+        (torch.Size([2, 4]), torch.Size([2, 1, 128]), torch.Size([2]))
+    """
 
     def __init__(self, net: OccNet) -> None:
         self.net = net
@@ -74,7 +95,23 @@ class NetworkStepper:
 
 @dataclass
 class RHPResult:
-    """Per root: the chosen first action and its return; all roll-outs' first actions and returns."""
+    """Per root: the chosen first action and its return; all roll-outs' first actions and returns.
+
+    Examples:
+        >>> import numpy as np
+        >>> import torch
+        >>> from occrl.modules import make_occnet
+        >>> from occrl.planners import RecreatedState, rhp_batched, with_target
+        >>> box = np.array([[-0.02, -0.02], [0.02, -0.02], [0.02, 0.02], [-0.02, 0.02]])
+        >>> root = with_target(RecreatedState((), (0.0, -0.1, 0.0), 0.085, False, 1, box), (0.0, 0.2, 0.0))
+        >>> hidden = (torch.zeros(1, 1, 128), torch.zeros(1, 1, 128))
+        >>> noise = torch.randn(1, 2, 2, 4, generator=torch.Generator().manual_seed(0))  # 1 root, m = h = 2
+        >>> res = rhp_batched(make_occnet("paper"), [root], hidden, noise)
+        >>> res.action.shape, res.returns.shape, res.first_actions.shape, res.paths.shape
+        ((1, 4), (1, 2), (1, 2, 4), (1, 2, 3, 3))
+        >>> bool(res.value[0] == res.returns[0].max())  # the best roll-out's return
+        True
+    """
 
     action: np.ndarray  # (R, 4)
     value: np.ndarray  # (R,)
@@ -98,7 +135,22 @@ def rhp_batched(
     gamma: float = C.GAMMA,
 ) -> RHPResult:
     """All roots x m roll-outs in lock-step. ``hidden``: the LSTM state before the current
-    observation, each (1, layers, H). ``noise``: (R, m, h, 4) standard normal draws."""
+    observation, each (1, layers, H). ``noise``: (R, m, h, 4) standard normal draws.
+
+    Examples:
+        >>> import numpy as np
+        >>> import torch
+        >>> from occrl.modules import make_occnet
+        >>> from occrl.planners import RecreatedState, rhp_batched, with_target
+        >>> box = np.array([[-0.02, -0.02], [0.02, -0.02], [0.02, 0.02], [-0.02, 0.02]])
+        >>> state = RecreatedState((), (0.0, -0.1, 0.0), 0.085, False, target_type=1, target_vertices=box)
+        >>> roots = [with_target(state, (-0.1, 0.2, 0.0)), with_target(state, (0.1, 0.2, 0.0))]
+        >>> hidden = (torch.zeros(1, 1, 128), torch.zeros(1, 1, 128))
+        >>> noise = torch.randn(2, 2, 2, 4, generator=torch.Generator().manual_seed(0))
+        >>> res = rhp_batched(make_occnet("paper"), roots, hidden, noise)
+        >>> res.action.shape, res.value.shape, res.steps  # 2 roots x 2 roll-outs x 2 steps
+        ((2, 4), (2,), 8)
+    """
     R, m, depth, _ = noise.shape
     stepper = NetworkStepper(net)
     worlds = [make_world(root) for root in roots for _ in range(m)]
@@ -152,7 +204,21 @@ def rhp_sequential(
     noise: torch.Tensor,
     gamma: float = C.GAMMA,
 ) -> RHPResult:
-    """Alg. 2 as printed: for each root, for each roll-out, step by step (the reference)."""
+    """Alg. 2 as printed: for each root, for each roll-out, step by step (the reference).
+
+    Examples:
+        >>> import numpy as np
+        >>> import torch
+        >>> from occrl.modules import make_occnet
+        >>> from occrl.planners import RecreatedState, rhp_batched, rhp_sequential, with_target
+        >>> box = np.array([[-0.02, -0.02], [0.02, -0.02], [0.02, 0.02], [-0.02, 0.02]])
+        >>> root = with_target(RecreatedState((), (0.0, -0.1, 0.0), 0.085, False, 1, box), (0.0, 0.2, 0.0))
+        >>> net, hidden = make_occnet("paper"), (torch.zeros(1, 1, 128), torch.zeros(1, 1, 128))
+        >>> noise = torch.randn(1, 2, 2, 4, generator=torch.Generator().manual_seed(0))
+        >>> seq, bat = rhp_sequential(net, [root], hidden, noise), rhp_batched(net, [root], hidden, noise)
+        >>> bool(np.allclose(seq.returns, bat.returns)), bool(np.allclose(seq.action, bat.action))
+        (True, True)
+    """
     R, m, depth, _ = noise.shape
     stepper = NetworkStepper(net)
     returns = np.zeros((R, m))

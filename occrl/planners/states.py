@@ -27,6 +27,18 @@ _RINGS = [0.0, 0.01, 0.02, 0.03, 0.04]
 
 @dataclass
 class Root:
+    """A root state for RHP, weighted by the heat-map mass around its peak.
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.planners import RecreatedState, generate_states, with_target
+        >>> box = np.array([[-0.02, -0.02], [0.02, -0.02], [0.02, 0.02], [-0.02, 0.02]])
+        >>> seen = with_target(RecreatedState((), (0.0, -0.1, 0.0), 0.085, False, 1, box), (0.0, 0.2, 0.0))
+        >>> root, = generate_states(np.zeros((64, 64)), seen)  # the target is seen: one root, weight 1
+        >>> root.weight, root.peak_pixel, root.state is seen
+        (1.0, None, True)
+    """
+
     state: RecreatedState
     weight: float
     peak_pixel: tuple[int, int] | None = None  # (row, col) in the heat-map, None when the target is seen
@@ -35,7 +47,16 @@ class Root:
 
 def heatmap_peaks(heat: np.ndarray, max_peaks: int = 3, radius: int = 6, rel_threshold: float = 0.2) -> list[tuple[int, int, float]]:
     """Greedy non-maximum suppression: (row, col, mass) of up to ``max_peaks`` peaks whose height
-    is at least ``rel_threshold`` of the highest; mass is the heat inside ``radius`` pixels."""
+    is at least ``rel_threshold`` of the highest; mass is the heat inside ``radius`` pixels.
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.planners import heatmap_peaks
+        >>> heat = np.zeros((16, 16))
+        >>> heat[3, 4], heat[10, 12], heat[12, 2] = 1.0, 0.5, 0.1  # the last is below 0.2 x the top
+        >>> heatmap_peaks(heat, max_peaks=3, radius=2)
+        [(3, 4, 1.0), (10, 12, 0.5)]
+    """
     h = np.asarray(heat, dtype=float).copy()
     top = h.max()
     if not np.isfinite(top) or top <= 1e-6:
@@ -59,7 +80,19 @@ def generate_states(
     window: float = DEFAULT_WINDOW,
     forward_offset: float = DEFAULT_FORWARD_OFFSET,
 ) -> list[Root]:
-    """Weighted root states from the heat-map (robot-centric, (S, S)) and the recreated state."""
+    """Weighted root states from the heat-map (robot-centric, (S, S)) and the recreated state.
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.planners import RecreatedState, generate_states
+        >>> box = np.array([[-0.02, -0.02], [0.02, -0.02], [0.02, 0.02], [-0.02, 0.02]])
+        >>> state = RecreatedState((), (0.0, -0.1, 0.0), 0.085, False, target_type=1, target_vertices=box)
+        >>> heat = np.zeros((64, 64))
+        >>> heat[20, 32] = 1.0  # one peak, about 0.29 m ahead of the gripper
+        >>> root, = generate_states(heat, state)
+        >>> root.peak_pixel, root.weight, np.round(root.target_pose, 3).tolist(), root.state.target_detected
+        ((20, 32), 1.0, [0.006, 0.194, 0.0], True)
+    """
     if state.target_detected:
         return [Root(state, 1.0)]
     size = heatmap.shape[-1]

@@ -15,6 +15,16 @@ class TrainConfig:
 
     ``frames_per_batch = num_envs * steps_per_env``; every iteration starts all episodes afresh
     (``reset_at_each_iter``), which makes runs resumable exactly from a checkpoint.
+
+    Examples:
+        >>> from occrl.training import TrainConfig
+        >>> cfg = TrainConfig(num_envs=4, steps_per_env=8)
+        >>> cfg.frames_per_batch, TrainConfig.from_dict(cfg.to_dict()) == cfg
+        (32, True)
+        >>> TrainConfig.from_dict({"learning_rate": 1e-3})
+        Traceback (most recent call last):
+            ...
+        ValueError: unknown training settings ['learning_rate']
     """
 
     preset: str = "paper"
@@ -96,6 +106,14 @@ TRAIN_PRESETS: dict[str, TrainConfig] = {
 
 
 def get_train_config(preset: str = "paper", **overrides) -> TrainConfig:
+    """The preset's :class:`TrainConfig` with ``overrides`` applied (``ValueError`` for an unknown preset).
+
+    Examples:
+        >>> from occrl.training import get_train_config
+        >>> cfg = get_train_config("tiny", lr=1e-3)
+        >>> cfg.preset, cfg.lr, cfg.frames_per_batch
+        ('tiny', 0.001, 32)
+    """
     if preset not in TRAIN_PRESETS:
         raise ValueError(f"unknown training preset {preset!r}; available: {sorted(TRAIN_PRESETS)}")
     return replace(TRAIN_PRESETS[preset], **overrides)

@@ -18,7 +18,25 @@ __all__ = ["ExpertMixPolicy", "label_with_expert"]
 
 class ExpertMixPolicy(TensorDictModuleBase):
     """Run the learner's policy (keeping its recurrent state and log-prob) and replace its action
-    by the expert's with probability ``beta`` per step."""
+    by the expert's with probability ``beta`` per step.
+
+    Examples:
+        >>> import torch
+        >>> from occrl.baselines import ScriptedRetriever
+        >>> from occrl.envs import make_env
+        >>> from occrl.modules import make_occnet
+        >>> from occrl.training.dagger import ExpertMixPolicy
+        >>> net = make_occnet("paper")
+        >>> td = make_env(batch_size=1, seed=0).append_transform(net.make_primer()).reset()
+        >>> expert_action = ScriptedRetriever()(td.clone())["action"]
+        >>> mix = ExpertMixPolicy(net.policy, ScriptedRetriever(), beta=1.0)  # the expert always acts
+        >>> out = mix(td.clone())
+        >>> torch.equal(out["action"], expert_action), "action_log_prob" in out.keys()
+        (True, True)
+        >>> mix.beta = 0.0  # the learner always acts
+        >>> torch.equal(mix(td.clone())["action"], expert_action)
+        False
+    """
 
     def __init__(self, policy: TensorDictModuleBase, expert: ScriptedRetriever, beta: float = 1.0) -> None:
         super().__init__()
@@ -49,7 +67,18 @@ class ExpertMixPolicy(TensorDictModuleBase):
 
 @torch.no_grad()
 def label_with_expert(data: TensorDictBase, expert: ScriptedRetriever) -> TensorDictBase:
-    """Write ``"expert_action"`` for every step of a collected batch (expert reads privileged keys)."""
+    """Write ``"expert_action"`` for every step of a collected batch (expert reads privileged keys).
+
+    Examples:
+        >>> from occrl.baselines import ScriptedRetriever
+        >>> from occrl.envs import make_env
+        >>> from occrl.modules import make_occnet
+        >>> from occrl.training.dagger import label_with_expert
+        >>> net = make_occnet("paper")
+        >>> data = make_env(batch_size=1, seed=0).append_transform(net.make_primer()).rollout(2, net.policy)
+        >>> label_with_expert(data, ScriptedRetriever())["expert_action"].shape
+        torch.Size([1, 2, 4])
+    """
     flat = data.reshape(-1)
     labels = expert(flat.select("gripper_pose", "gripper_opening", "gripper_closed", "privileged").copy()).get("action")
     data.set("expert_action", labels.reshape(*data.shape, -1))

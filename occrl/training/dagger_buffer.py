@@ -18,6 +18,22 @@ _KEYS = ["pixels", "is_init", "recurrent_state_h", "recurrent_state_c", "expert_
 
 
 class DaggerBuffer:
+    """Expert-labelled [B, T] batches of the last ``capacity`` iterations, sampled as whole sequences.
+
+    Examples:
+        >>> import torch
+        >>> from tensordict import TensorDict
+        >>> from occrl.training.dagger_buffer import DaggerBuffer
+        >>> buffer = DaggerBuffer(capacity=2)
+        >>> for _ in range(3):  # three iterations of 2 sequences x 5 steps; the oldest is dropped
+        ...     buffer.add(TensorDict({"pixels": torch.ones(2, 5, 3, 64, 64), "expert_action": torch.zeros(2, 5, 4)},
+        ...                           batch_size=[2, 5]))
+        >>> len(buffer), buffer.batches[0]["pixels"].dtype  # sequences kept, stored compactly
+        (4, torch.uint8)
+        >>> batch = buffer.sample(3, generator=torch.Generator().manual_seed(0))
+        >>> batch.shape, batch["pixels"].dtype, bool((batch["pixels"] == 1.0).all())
+        (torch.Size([3, 5]), torch.float32, True)
+    """
     def __init__(self, capacity: int) -> None:
         self.capacity = int(capacity)
         self.batches: list[TensorDictBase] = []

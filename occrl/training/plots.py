@@ -12,7 +12,19 @@ __all__ = ["plot_learning_curves", "read_metrics"]
 
 def read_metrics(path: str | Path) -> list[dict]:
     """Rows by iteration; when a run was resumed from an older checkpoint, the rows written
-    after the checkpoint and before the stop are superseded by the resumed ones (last wins)."""
+    after the checkpoint and before the stop are superseded by the resumed ones (last wins).
+
+    Examples:
+        >>> import json, tempfile
+        >>> from pathlib import Path
+        >>> from occrl.training.plots import read_metrics
+        >>> path = Path(tempfile.mkdtemp()) / "metrics.jsonl"
+        >>> rows = [{"iteration": 1, "success_rate": 0.0}, {"iteration": 2, "success_rate": 0.1},
+        ...         {"iteration": 2, "success_rate": 0.2}]  # iteration 2 again after a resume
+        >>> _ = path.write_text("".join(json.dumps(r) + "\n" for r in rows))
+        >>> [(r["iteration"], r["success_rate"]) for r in read_metrics(path)]
+        [(1, 0.0), (2, 0.2)]
+    """
     by_iter: dict[int, dict] = {}
     with open(path) as f:
         for line in f:
@@ -33,7 +45,19 @@ def _smooth(y: np.ndarray, k: int = 10) -> np.ndarray:
 
 
 def plot_learning_curves(metrics_path: str | Path, out_path: str | Path, title: str | None = None) -> Path:
-    """Success rate, return, heat-map loss and stage against frames, one PNG."""
+    """Success rate, return, heat-map loss and stage against frames, one PNG.
+
+    Examples:
+        >>> import json, tempfile
+        >>> from pathlib import Path
+        >>> from occrl.training.plots import plot_learning_curves
+        >>> run = Path(tempfile.mkdtemp())
+        >>> rows = [{"iteration": i, "frames": 32 * i, "success_rate": 0.1 * i, "stage": 1} for i in (1, 2, 3)]
+        >>> _ = (run / "metrics.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
+        >>> path = plot_learning_curves(run / "metrics.jsonl", run / "curves.png")
+        >>> path.name, path.stat().st_size > 0
+        ('curves.png', True)
+    """
     from matplotlib.figure import Figure  # no pyplot: leaves the caller's backend (e.g. a notebook's) alone
 
     rows = read_metrics(metrics_path)
