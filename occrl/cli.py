@@ -17,6 +17,16 @@ from pathlib import Path
 __all__ = ["main"]
 
 
+def _gl_available() -> bool:
+    """MuJoCo camera images need an OpenGL backend (EGL headless); without one the demo still runs."""
+    from occrl.envs.mujoco_camera import gl_available
+
+    ok, why = gl_available()
+    if not ok:
+        print(f"no OpenGL backend for MuJoCo ({why}): the GIF shows no gripper-camera images (detection uses rays)")
+    return ok
+
+
 def _demo(args: argparse.Namespace) -> int:
     import numpy as np
 
@@ -51,7 +61,8 @@ def _demo(args: argparse.Namespace) -> int:
     print(f"{'task':>4} {'objects':>7} {'result':>10} {'actions':>7} {'seconds':>7}")
     for k in range(args.tasks):
         scene = Scene.sample(args.stage, seed=args.seed + k)
-        env = make_env(batch_size=1, scenes=[scene], heatmap_target=False)
+        extra = {"backend": "mujoco", "record_camera": _gl_available()} if args.world == "mujoco" else {}
+        env = make_env(batch_size=1, scenes=[scene], heatmap_target=False, **extra)
         for p in primers:
             env.append_transform(p.clone())
         if hasattr(policy, "reseed"):
@@ -66,7 +77,7 @@ def _demo(args: argparse.Namespace) -> int:
         print(f"{k:>4} {len(scene):>7} {result:>10} {td.shape[0]:>7} {dt:>7.2f}")
         frames_all.extend(episode_frames(td, decisions=getattr(policy, "decisions", None)))
     success = float(np.mean([r["result"] == "success" for r in rows]))
-    summary = {"method": method, "description": label, "stage": args.stage, "tasks": rows, "success_rate": success}
+    summary = {"method": method, "description": label, "stage": args.stage, "world": args.world, "tasks": rows, "success_rate": success}
     (out / "demo_summary.json").write_text(json.dumps(summary, indent=2))
     gif = save_gif(frames_all, out / "demo.gif", fps=args.fps)
     strip = save_film_strip(frames_all[: max(1, len(frames_all) // args.tasks + 1)], out / "demo_strip.png")
@@ -274,6 +285,8 @@ def main(argv: list[str] | None = None) -> int:
     d.add_argument("--fps", type=float, default=4.0)
     d.add_argument("--method", default="hybrid-4x4", choices=["hybrid-2x2", "hybrid-4x4", "hybrid-6x6", "scripted"])
     d.add_argument("--weights", default=None, help="network weights instead of the shipped occnet")
+    d.add_argument("--world", choices=["pymunk", "mujoco"], default="pymunk",
+                   help="execute in the 2D pymunk world or the 3D MuJoCo shelf (frames add the gripper-camera image)")
     d.set_defaults(func=_demo)
 
     t = sub.add_parser("train", help="train OccNet (curriculum PPO + heat-map loss); resumes from RUN_DIR")

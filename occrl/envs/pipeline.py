@@ -51,6 +51,7 @@ def make_env(
     forward_offset: float = DEFAULT_FORWARD_OFFSET,
     heatmap_target: bool = True,
     backend: str = "pymunk",
+    **env_kwargs,
 ) -> TransformedEnv:
     """The standard pipeline: a batched env whose ``"pixels"`` entry is the 3x64x64 network input.
 
@@ -63,6 +64,8 @@ def make_env(
         heatmap_target: also render ``("privileged", "heatmap_target")`` for training.
         backend: ``"pymunk"`` (the 2D world) or ``"mujoco"`` (:class:`~occrl.envs.MujocoShelfEnv`, the
             3D execution env with its default visibility ``"auto"``; needs ``pip install -e ".[mujoco]"``).
+        **env_kwargs: passed to the env class, e.g. ``record_camera=True`` or ``visibility="rays"``
+            for MuJoCo.
 
     Examples:
         >>> from occrl.envs import make_env
@@ -80,7 +83,8 @@ def make_env(
     else:
         raise ValueError(f"backend must be 'pymunk' or 'mujoco', got {backend!r}")
     base = env_cls(
-        batch_size=batch_size, stage=stage, noise=noise, seed=seed, scenes=scenes, num_objects=num_objects, max_steps=max_steps
+        batch_size=batch_size, stage=stage, noise=noise, seed=seed, scenes=scenes, num_objects=num_objects, max_steps=max_steps,
+        **env_kwargs,
     )
     transforms = [InitTracker(), StepCounter()]
     transforms += observation_transforms(window, size, forward_offset, heatmap_target)

@@ -80,7 +80,8 @@ def _obs_panel(step: TensorDictBase, heatmap: np.ndarray | None = None, decision
 
 def frame(step: TensorDictBase, caption: str = "", heatmap: np.ndarray | None = None, decision=None) -> np.ndarray:
     """One picture of one step (a tensordict with no batch dims): true scene | observation, with
-    the heat-map's contours, the planner's root states (weights; orange = chosen) and action.
+    the heat-map's contours, the planner's root states (weights; orange = chosen) and action |
+    the gripper-camera image when the step has ``"camera_rgb"`` (MuJoCo, ``record_camera=True``).
 
     Examples:
         >>> from occrl.baselines import ScriptedRetriever
@@ -91,12 +92,16 @@ def frame(step: TensorDictBase, caption: str = "", heatmap: np.ndarray | None = 
         >>> picture.shape, picture.dtype
         ((306, 518, 3), dtype('uint8'))
     """
-    left = _true_panel(step)
-    right = _obs_panel(step, heatmap, decision)
-    h = max(left.shape[0], right.shape[0]) + 18
-    out = np.full((h, left.shape[1] + right.shape[1] + 6, 3), 255, np.uint8)
-    out[18 : 18 + left.shape[0], : left.shape[1]] = left
-    out[18 : 18 + right.shape[0], left.shape[1] + 6 :] = right
+    panels = [_true_panel(step), _obs_panel(step, heatmap, decision)]
+    if "camera_rgb" in step.keys():  # MujocoShelfEnv(record_camera=True): the real gripper-camera image
+        cam = step.get("camera_rgb").permute(1, 2, 0).numpy()
+        panels.append(np.asarray(Image.fromarray(cam).resize((PANEL, int(PANEL * cam.shape[0] / cam.shape[1])), Image.BILINEAR)))
+    h = max(p.shape[0] for p in panels) + 18
+    out = np.full((h, sum(p.shape[1] for p in panels) + 6 * (len(panels) - 1), 3), 255, np.uint8)
+    x = 0
+    for p in panels:
+        out[18 : 18 + p.shape[0], x : x + p.shape[1]] = p
+        x += p.shape[1] + 6
     img = Image.fromarray(out)
     ImageDraw.Draw(img).text((4, 3), caption, fill=(0, 0, 0))
     return np.asarray(img)

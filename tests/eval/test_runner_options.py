@@ -29,3 +29,17 @@ def test_scripted_retrieves_a_lone_target_in_the_mujoco_world():
     pytest.importorskip("dm_control")
     [result] = run_tasks("scripted", 2, SEEDS[:1], num_objects=1, progress=False, world="mujoco")
     assert result.objects == 1 and result.success and not result.dropped
+
+
+def test_mujoco_frames_show_the_gripper_camera():
+    pytest.importorskip("dm_control")
+    from occrl.envs import make_env
+    from occrl.envs.mujoco_camera import gl_available
+    from occrl.eval.film import frame
+
+    if not gl_available()[0]:
+        pytest.skip("no OpenGL backend for MuJoCo camera images")
+    plain = make_env(batch_size=1, stage=1, seed=0, heatmap_target=False).reset()[0]
+    td = make_env(batch_size=1, stage=1, seed=0, heatmap_target=False, backend="mujoco", record_camera=True).reset()[0]
+    assert td["camera_rgb"].shape[0] == 3 and int(td["camera_rgb"].max()) > 0
+    assert frame(td).shape[1] > frame(plain).shape[1] + 200  # a third panel: the camera image
