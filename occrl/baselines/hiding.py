@@ -29,7 +29,17 @@ class HidingRegion:
 
     While the target is unlocated, Rearrange's queries treat this region as forbidden for the
     gripper (points along the outline of every part) and for every object (they would push the
-    hidden target), and the free spot avoids it."""
+    hidden target), and the free spot avoids it.
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.baselines.hiding import HidingRegion
+        >>> box = lambda x, y, r: np.array([[x-r, y-r], [x+r, y-r], [x+r, y+r], [x-r, y+r]])
+        >>> known = [box(0.0, 0.1, 0.05)]  # a 10 cm box straight ahead of the camera
+        >>> region = HidingRegion(box(0.0, 0.0, 0.02), views=[(np.array([0.0, -0.1, 0.0]), known)], known=known, step=0.04)
+        >>> region([[0.0, 0.25], [0.0, 0.02], [0.0, 0.1]]).tolist()  # behind the box; in view; in the box
+        [True, False, False]
+    """
 
     CELL = 0.005
 

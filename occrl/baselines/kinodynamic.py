@@ -80,7 +80,17 @@ _STALE_OVERLAP = 0.005  # a remembered object overlapping a fresher one or the g
 def ompl_seed(seed: int) -> None:
     """Seed OMPL's random numbers: every sampler and planner made afterwards draws its seed from
     this. (OMPL complains when seeds were drawn before; that message is silenced: re-seeding
-    before each query is what makes a query a function of its seed.)"""
+    before each query is what makes a query a function of its seed.)
+
+    Examples:
+        >>> from ompl import util as ou
+        >>> from occrl.baselines.kinodynamic import ompl_seed
+        >>> ompl_seed(5); a = ou.RNG().uniform01()
+        >>> ompl_seed(5); b = ou.RNG().uniform01()
+        >>> ompl_seed(6); c = ou.RNG().uniform01()
+        >>> a == b, a == c
+        (True, False)
+    """
     ou.noOutputHandler()
     try:
         ou.RNG.setSeed(int(seed) % (2**31 - 1) + 1)  # OMPL refuses seed 0
@@ -92,7 +102,15 @@ def ompl_seed(seed: int) -> None:
 def steer_action(pose, target, grip: float) -> np.ndarray:
     """The action that moves the gripper straight towards ``target`` (x, y, theta) at full speed:
     the world-frame displacement is converted to the gripper frame and all three motion entries
-    are scaled by the same factor so that the largest is at most 1 (a straight line)."""
+    are scaled by the same factor so that the largest is at most 1 (a straight line).
+
+    Examples:
+        >>> from occrl.baselines.kinodynamic import CLOSE, OPEN, steer_action
+        >>> steer_action((0.0, 0.0, 0.0), (0.1, 0.0, 0.0), OPEN).tolist()  # 10 cm right: a full lateral step
+        [0.0, 1.0, 0.0, -1.0]
+        >>> steer_action((0.0, 0.0, 0.0), (0.0, 0.02, 0.0), CLOSE).round(3).tolist()  # 2 cm of a 5 cm step
+        [0.4, 0.0, 0.0, 1.0]
+    """
     x, y, th = (float(v) for v in pose)
     dx, dy = float(target[0]) - x, float(target[1]) - y
     c, s = math.cos(th), math.sin(th)
@@ -147,7 +165,21 @@ class ReachGoal(_GoalSpec):
     ``grasp_poses`` (world frame, best first, for the object at ``object_pose``) are heuristic
     gripper poses in the region; they are kept relative to the object, so they follow it when it
     is pushed. Features: the object's centre in the gripper frame. Goal samples are drawn from the
-    grasp poses (the best most often); the distance outside the region is to the nearest one."""
+    grasp poses (the best most often); the distance outside the region is to the nearest one.
+
+    Examples:
+        >>> from occrl.baselines.kinodynamic import OPEN, ReachGoal, SimControlProblem, grasp_poses
+        >>> from occrl.envs import Scene, ShelfWorld
+        >>> box = [[-0.02, -0.02], [0.02, -0.02], [0.02, 0.02], [-0.02, 0.02]]
+        >>> world = ShelfWorld(Scene.from_objects([{"vertices": box, "pose": (0.0, 0.15, 0.0), "is_target": True}],
+        ...                                       gripper_pose=(0.0, -0.1, 0.0)))
+        >>> goal = ReachGoal(0, world.nominal_vertices, grasp_poses(world, 0), world.object_poses()[0])
+        >>> problem = SimControlProblem(world, goal, grip=OPEN)
+        >>> start = problem.table[0]  # the start state's simulator entry
+        >>> goal.name, goal.satisfied(start), round(float(goal.distance(start)), 3)  # 22.5 cm from the best grasp
+        ('reach', False, 0.226)
+        >>> problem.close()  # frees the OMPL objects, which reference the problem from C++
+    """
 
     name = "reach"
     feature_bounds = ((-1.0, 1.0), (-1.0, 1.0))
@@ -197,7 +229,21 @@ def grasp_poses(world: ShelfWorld, index: int, prefer_angle: float = 0.0, limit:
     within 45 degrees, lateral offsets up to 3 cm, the palm 5 mm short of the object; ranked by
     turn from ``prefer_angle`` and offset, poses whose palm or forearm would have to push another
     object after the collision-free ones. Falls back to
-    :func:`~occrl.baselines.scripted.plan_grasp`'s pose when nothing fits."""
+    :func:`~occrl.baselines.scripted.plan_grasp`'s pose when nothing fits.
+
+    Examples:
+        >>> from occrl.baselines.kinodynamic import grasp_poses
+        >>> from occrl.envs import Scene, ShelfWorld
+        >>> from occrl.envs import world_constants as C
+        >>> from occrl.envs.world import grasp_candidate
+        >>> box = [[-0.02, -0.02], [0.02, -0.02], [0.02, 0.02], [-0.02, 0.02]]
+        >>> world = ShelfWorld(Scene.from_objects([{"vertices": box, "pose": (0.0, 0.15, 0.0), "is_target": True}]))
+        >>> poses = grasp_poses(world, 0)
+        >>> poses.shape, poses[0].round(3).tolist()  # best first: straight on, palm 5 mm short of the box
+        ((8, 3), [0.0, 0.125, 0.0])
+        >>> grasp_candidate(poses[0], C.GRIPPER_STROKE, world.object_world_polygons())[0]  # closing there holds it
+        0
+    """
     from occrl.baselines.scripted import plan_grasp
 
     poses = world.object_poses()
@@ -235,7 +281,20 @@ def grasp_poses(world: ShelfWorld, index: int, prefer_angle: float = 0.0, limit:
 class HoldGoal(_GoalSpec):
     """Object ``index`` held, with its centroid past ``max_y`` (retrieve) or within ``radius`` of
     ``spot`` (rearrange). Features: the object's position. Goal samples: the start gripper pose
-    moved by what the object has to move."""
+    moved by what the object has to move.
+
+    Examples:
+        >>> from occrl.baselines.kinodynamic import HoldGoal
+        >>> goal = HoldGoal(0, start_pose=(0.0, 0.12, 0.0), start_object_pose=(0.0, 0.15, 0.0), max_y=-0.05)
+        >>> goal.name, goal.goal_pose.round(3).tolist()  # the gripper moved as far as the object must
+        ('extract', [0.0, -0.1, 0.0])
+        >>> HoldGoal(0, (0.0, 0.12, 0.0), (0.0, 0.15, 0.0), spot=(0.1, 0.2)).name
+        'place'
+        >>> HoldGoal(0, (0.0, 0.12, 0.0), (0.0, 0.15, 0.0))
+        Traceback (most recent call last):
+            ...
+        ValueError: give exactly one of max_y (retrieve) and spot (rearrange)
+    """
 
     feature_bounds = ((-0.5, 0.5), (-0.5, 0.5))
 
@@ -347,7 +406,21 @@ class _Entry:
 
 @dataclass
 class PlanResult:
-    """What one low-level query produced."""
+    """What one low-level query produced.
+
+    Examples:
+        >>> from occrl.baselines.kinodynamic import OPEN, ReachGoal, SimControlProblem, grasp_poses
+        >>> from occrl.envs import Scene, ShelfWorld
+        >>> box = [[-0.02, -0.02], [0.02, -0.02], [0.02, 0.02], [-0.02, 0.02]]
+        >>> world = ShelfWorld(Scene.from_objects([{"vertices": box, "pose": (0.0, 0.15, 0.0), "is_target": True}],
+        ...                                       gripper_pose=(0.0, -0.1, 0.0)))
+        >>> goal = ReachGoal(0, world.nominal_vertices, grasp_poses(world, 0), world.object_poses()[0])
+        >>> problem = SimControlProblem(world, goal, grip=OPEN, seed=0)
+        >>> result = problem.solve(seconds=1.0)
+        >>> problem.close()
+        >>> result.name, result.success, result.status, result.propagations > 0
+        ('reach', True, 'Exact solution', True)
+    """
 
     name: str
     success: bool
@@ -373,6 +446,23 @@ class SimControlProblem:
         forbidden: a :class:`HidingRegion`; states where the gripper's outline or an object is
             further in it than at the start are invalid.
         seed: seeds OMPL (re-seeded at each :meth:`solve`) and the goal samples' jitter.
+
+    Examples:
+        >>> from occrl.baselines.kinodynamic import OPEN, ReachGoal, SimControlProblem, grasp_poses
+        >>> from occrl.envs import Scene, ShelfWorld
+        >>> box = [[-0.02, -0.02], [0.02, -0.02], [0.02, 0.02], [-0.02, 0.02]]
+        >>> world = ShelfWorld(Scene.from_objects([{"vertices": box, "pose": (0.0, 0.15, 0.0), "is_target": True}],
+        ...                                       gripper_pose=(0.0, -0.1, 0.0)))
+        >>> goal = ReachGoal(0, world.nominal_vertices, grasp_poses(world, 0), world.object_poses()[0])
+        >>> problem = SimControlProblem(world, goal, grip=OPEN, seed=0)
+        >>> result = problem.solve(seconds=1.0)
+        >>> problem.close()  # frees the OMPL objects, which reference the problem from C++
+        >>> result.success, len(result.actions) <= result.raw_length  # shortcutting never lengthens
+        (True, True)
+        >>> for action in result.actions:
+        ...     _ = world.step(action)
+        >>> goal.satisfied(result.final), bool((world.object_poses() == result.final.object_poses).all())
+        (True, True)
     """
 
     def __init__(

@@ -57,7 +57,14 @@ _GL_CONTEXT = None
 
 
 def require_mujoco():
-    """Import ``mujoco`` and ``dm_control.mjcf`` or raise an ``ImportError`` naming the extra."""
+    """Import ``mujoco`` and ``dm_control.mjcf`` or raise an ``ImportError`` naming the extra.
+
+    Examples:
+        >>> from occrl.envs.mujoco_camera import require_mujoco
+        >>> mujoco, mjcf = require_mujoco()
+        >>> mujoco.__name__, mjcf.__name__
+        ('mujoco', 'dm_control.mjcf')
+    """
     global _mujoco, _mjcf
     if _mujoco is not None:
         return _mujoco, _mjcf
@@ -167,7 +174,17 @@ def new_renderer(model, height: int, width: int):
 
 @dataclass(frozen=True)
 class CameraConfig:
-    """The gripper camera: image size and horizontal field of view."""
+    """The gripper camera: image size and horizontal field of view.
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.mujoco_camera import CameraConfig
+        >>> camera = CameraConfig()  # 160 x 120 pixels, 70 degrees across
+        >>> round(camera.fovy_degrees, 1), camera.ray_directions().shape
+        (55.4, (19200, 3))
+        >>> camera.pixel_u(np.array([0, camera.width - 1])).round(3).tolist()  # tangents of the edge columns
+        [-0.696, 0.696]
+    """
 
     height: int = 120
     width: int = 160
@@ -205,7 +222,19 @@ class CameraConfig:
 def prism_pixel_counts(prism: np.ndarray, camera: CameraConfig) -> tuple[int, int]:
     """Pixel centres a prism covers alone: on the camera's rows extended sideways without bound
     (the visibility denominator), and within the image. ``prism``: its 2n vertices in the camera
-    frame (x right, y up, looking along -z), bottom ring then top ring."""
+    frame (x right, y up, looking along -z), bottom ring then top ring.
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.mujoco_camera import CameraConfig, prism_pixel_counts
+        >>> ring = np.array([[-0.02, -0.02, -0.22], [0.02, -0.02, -0.22], [0.02, -0.02, -0.18], [-0.02, -0.02, -0.18]])
+        >>> cube = np.concatenate([ring, ring + [0.0, 0.04, 0.0]])  # a 4 cm cube 20 cm ahead of the camera
+        >>> camera = CameraConfig(height=12, width=16)
+        >>> prism_pixel_counts(cube, camera)  # all its pixels are in the image
+        (4, 4)
+        >>> prism_pixel_counts(cube + [0.3, 0.0, 0.0], camera)  # moved out of view to the right
+        (10, 0)
+    """
     poly = _projected_polygon(prism, len(prism) // 2)
     if poly is None:
         return 0, 0

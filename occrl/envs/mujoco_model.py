@@ -52,7 +52,15 @@ TIMESTEP = 0.002
 
 
 def type_height(type_id: int, height_range=OBJECT_HEIGHT_RANGE) -> float:
-    """A deterministic height per type id in ``height_range`` (a float means a fixed height)."""
+    """A deterministic height per type id in ``height_range`` (a float means a fixed height).
+
+    Examples:
+        >>> from occrl.envs.mujoco_model import type_height
+        >>> [round(type_height(t), 3) for t in (1, 2, 3)]  # in the default 10-18 cm range
+        [0.149, 0.119, 0.168]
+        >>> type_height(5, 0.12)
+        0.12
+    """
     if isinstance(height_range, (int, float)):
         return float(height_range)
     lo, hi = height_range
@@ -65,7 +73,17 @@ def _box(body, name, lo, hi, **kw):
 
 
 def build_mjcf(scene: Scene, camera: CameraConfig, object_height=OBJECT_HEIGHT_RANGE):
-    """The dm_control ``mjcf`` model of a scene (shelf, objects, gripper with camera)."""
+    """The dm_control ``mjcf`` model of a scene (shelf, objects, gripper with camera).
+
+    Examples:
+        >>> from occrl.envs import Scene
+        >>> from occrl.envs.mujoco_camera import CameraConfig
+        >>> from occrl.envs.mujoco_model import build_mjcf
+        >>> scene = Scene.sample(stage=1, seed=0)
+        >>> model = build_mjcf(scene, CameraConfig())
+        >>> len(scene), len(model.find_all("body")), model.find("camera", "wrist") is not None  # objects, hand, fingers
+        (4, 7, True)
+    """
     _, mjcf = require_mujoco()
     root = mjcf.RootElement(model="shelf")
     root.compiler.angle = "radian"

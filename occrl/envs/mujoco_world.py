@@ -37,6 +37,16 @@ class MujocoWorld:
         record_camera: also keep a renderer for RGB frames (needs OpenGL).
         noise: execution noise on density and friction, drawn before each action from ``rng``.
         object_height: a height in m, or a (low, high) range sampled per type id.
+
+    Examples:
+        >>> from occrl.envs import Scene
+        >>> from occrl.envs.mujoco_world import MujocoWorld
+        >>> world = MujocoWorld(Scene.sample(stage=1, seed=0))  # visibility by ray casting: no OpenGL
+        >>> (world.visible_fractions() > 0.5).tolist()  # object 2 is mostly hidden
+        [True, True, False, True]
+        >>> out = world.step([1.0, 0.0, 0.0, -1.0])  # a full step forward, gripper open
+        >>> out.terminal, world.gripper_pose().round(3).tolist()
+        (False, [0.034, -0.05, 0.0])
     """
 
     def __init__(

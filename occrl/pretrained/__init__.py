@@ -19,12 +19,27 @@ _FILES = {"occnet": "occnet.pt", "occnet-noheatmap": "occnet-noheatmap.pt"}
 
 
 def available() -> list[str]:
-    """Names of the shipped networks present in this installation."""
+    """Names of the shipped networks present in this installation.
+
+    Examples:
+        >>> from occrl.pretrained import available
+        >>> "occnet" in available()
+        True
+    """
     return sorted(name for name, f in _FILES.items() if (_DIR / f).is_file())
 
 
 def model_card(name: str) -> dict:
-    """Training facts of a shipped network (preset, stage reached, frames, CPU-hours, ...)."""
+    """Training facts of a shipped network (preset, stage reached, frames, CPU-hours, ...).
+
+    Examples:
+        >>> from occrl.pretrained import model_card
+        >>> card = model_card("occnet")
+        >>> "train_preset" in card, "frames" in card
+        (True, True)
+        >>> model_card("no-such-net")  # unknown names have no card
+        {}
+    """
     path = _DIR / "model_cards.json"
     cards = json.loads(path.read_text()) if path.is_file() else {}
     return cards.get(name, {})

@@ -21,7 +21,9 @@ def read_metrics(path: str | Path) -> list[dict]:
         >>> path = Path(tempfile.mkdtemp()) / "metrics.jsonl"
         >>> rows = [{"iteration": 1, "success_rate": 0.0}, {"iteration": 2, "success_rate": 0.1},
         ...         {"iteration": 2, "success_rate": 0.2}]  # iteration 2 again after a resume
-        >>> _ = path.write_text("".join(json.dumps(r) + "\n" for r in rows))
+        >>> with open(path, "w") as f:
+        ...     for row in rows:
+        ...         print(json.dumps(row), file=f)
         >>> [(r["iteration"], r["success_rate"]) for r in read_metrics(path)]
         [(1, 0.0), (2, 0.2)]
     """
@@ -53,7 +55,9 @@ def plot_learning_curves(metrics_path: str | Path, out_path: str | Path, title: 
         >>> from occrl.training.plots import plot_learning_curves
         >>> run = Path(tempfile.mkdtemp())
         >>> rows = [{"iteration": i, "frames": 32 * i, "success_rate": 0.1 * i, "stage": 1} for i in (1, 2, 3)]
-        >>> _ = (run / "metrics.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
+        >>> with open(run / "metrics.jsonl", "w") as f:
+        ...     for row in rows:
+        ...         print(json.dumps(row), file=f)
         >>> path = plot_learning_curves(run / "metrics.jsonl", run / "curves.png")
         >>> path.name, path.stat().st_size > 0
         ('curves.png', True)
