@@ -79,7 +79,17 @@ def _env_factory(stage: int, noise: float, num_envs: int, seed: int, primer_net)
 
 
 def episode_stats(data: TensorDictBase) -> dict:
-    """Finished episodes of a [B, T] batch: success flags, returns and lengths."""
+    """Finished episodes of a [B, T] batch: success flags, returns and lengths.
+
+    Examples:
+        >>> from occrl.baselines import ScriptedRetriever
+        >>> from occrl.envs import Scene, make_env
+        >>> from occrl.training.trainer import episode_stats
+        >>> env = make_env(batch_size=1, scenes=[Scene.sample(1, seed=0, num_objects=1)], heatmap_target=False)
+        >>> stats = episode_stats(env.rollout(50, ScriptedRetriever()))
+        >>> stats["success"], stats["returns"][0] == -stats["lengths"][0]
+        ([True], True)
+    """
     done = data.get(("next", "done")).squeeze(-1).numpy()
     success = data.get(("next", "success")).squeeze(-1).numpy()
     reward = data.get(("next", "reward")).squeeze(-1).numpy()
