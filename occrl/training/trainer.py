@@ -43,6 +43,7 @@ logger = logging.getLogger(__name__)
 CHECKPOINT = "checkpoint.pt"
 DAGGER_DATA = "dagger_buffer.pt"
 WEIGHTS = "weights.pt"
+WARM_START_WEIGHTS = "weights_warmstart.pt"  # the network at the end of the DAgger warm start, before PPO
 METRICS = "metrics.jsonl"
 
 
@@ -401,6 +402,8 @@ class Trainer:
                 self.frames += data.numel()
                 dt = time.time() - t0
                 self.train_seconds += dt
+                if phase == "imitation" and self.iteration == c.imitation_iters:
+                    save_weights(self.run_dir / WARM_START_WEIGHTS, self.net, {"train_preset": c.preset, **self.state()})
                 summary = {
                     "iteration": self.iteration,
                     "frames": self.frames,

@@ -28,6 +28,12 @@ def test_resume_is_exact(tmp_path, imitation):
     a, b = _weights(straight.net), _weights(resumed.net)
     assert all(torch.equal(a[k], b[k]) for k in a)
     assert resumed.frames == straight.frames
+    # the network at the end of the warm start is kept beside the run's latest weights
+    warm = tmp_path / "a" / "weights_warmstart.pt"
+    assert warm.exists() == bool(imitation)
+    if imitation:
+        w = _weights(load_weights(warm))
+        assert all(torch.equal(w[k], a[k]) for k in a)
 
 
 def test_run_folder_has_logs_curves_and_small_files(tmp_path):
