@@ -224,6 +224,8 @@ def _export(args: argparse.Namespace) -> int:
     """Ship a run's weights inside the package as a named pretrained network."""
     import shutil
 
+    import torch
+
     from occrl.pretrained import _DIR, _FILES
     from occrl.training.checkpoint import load_weights, save_weights
     from occrl.training.plots import read_metrics
@@ -232,27 +234,36 @@ def _export(args: argparse.Namespace) -> int:
         print(f"name must be one of {sorted(_FILES)}", file=sys.stderr)
         return 2
     run = Path(args.run_dir)
-    net = load_weights(run / "weights.pt")
+    weights_path = run / (args.weights or "weights.pt")
+    net = load_weights(weights_path)
+    meta = torch.load(weights_path, map_location="cpu", weights_only=True).get("meta", {})
     rows = read_metrics(run / "metrics.jsonl")
-    last = rows[-1]
+    iteration = int(meta.get("iteration", rows[-1]["iteration"]))  # the file's own iteration, else the run's last
+    upto = [r for r in rows if r["iteration"] <= iteration] or rows
+    last = upto[-1]
+    stage = max(r["stage"] for r in upto)
     card = {
         "train_preset": args.preset,
         "seed": args.seed,
+        "weights_file": weights_path.name,
         "iterations": last["iteration"],
         "frames": last["frames"],
         "cpu_hours": round(last["train_hours"] * 2, 2),  # wall hours x 2 cores
         "wall_hours": round(last["train_hours"], 2),
-        "stage_reached": max(r["stage"] for r in rows),
+        "stage_reached": stage,
         "phase": last["phase"],
-        "summary": f"{args.name}: preset {args.preset}, {last['frames']:,} frames, stage {max(r['stage'] for r in rows)}, {last['phase']} phase",
+        "summary": f"{args.name}: preset {args.preset}, iteration {last['iteration']}, {last['frames']:,} frames, stage {stage}, "
+                   f"{last['phase']} phase",
     }
-    save_weights(_DIR / _FILES[args.name], net, card)
-    cards_path = _DIR / "model_cards.json"
+    dest = Path(args.dest) if args.dest else _DIR
+    dest.mkdir(parents=True, exist_ok=True)
+    save_weights(dest / _FILES[args.name], net, card)
+    cards_path = dest / "model_cards.json"
     cards = json.loads(cards_path.read_text()) if cards_path.exists() else {}
     cards[args.name] = card
     cards_path.write_text(json.dumps(cards, indent=2))
     docs = Path(__file__).resolve().parent.parent / "docs"
-    if docs.exists() and (run / "learning_curves.png").exists():
+    if not args.dest and docs.exists() and (run / "learning_curves.png").exists():
         shutil.copy(run / "learning_curves.png", docs / f"learning_curves_{args.name}.png")
     print(json.dumps(card, indent=2))
     return 0
@@ -335,6 +346,9 @@ def main(argv: list[str] | None = None) -> int:
     x.add_argument("--name", required=True, help="occnet or occnet-noheatmap")
     x.add_argument("--preset", required=True, help="the training preset the run used")
     x.add_argument("--seed", type=int, default=0)
+    x.add_argument("--weights", default=None,
+                   help="weights file in the run folder (default weights.pt, the latest; e.g. weights_warmstart.pt)")
+    x.add_argument("--dest", default=None, help="write into this folder instead of the package's pretrained/ (for trying it out)")
     x.set_defaults(func=_export)
 
     b = sub.add_parser("bench", help="run a speed benchmark from benchmarks/")
