@@ -178,12 +178,23 @@ def compute_advantages(net: OccNet, data: TensorDictBase, gamma: float = C.GAMMA
         (torch.Size([1, 3, 1]), torch.Size([1, 3, 1]))
     """
     B, T = data.shape
+    encoder, lstm = net.trunk[0], net.trunk[1]
     with set_recurrent_mode(True):
-        value = net.critic(net.trunk(data.copy())).get("state_value")
-    nxt = data.get("next").reshape(-1).copy()
+        td = net.trunk(data.copy())
+    value = net.critic(td).get("state_value")
+    # the next observation of step t is step t + 1's observation unless the episode ended at t
+    # (or t is the batch's last step): reuse those embeddings, encode only the others
+    embed = td.get("embed")
+    fresh = data.get(("next", "done")).reshape(B, T).clone()
+    fresh[:, -1] = True
+    next_embed = torch.empty_like(embed)
+    next_embed[:, :-1] = embed[:, 1:]
+    next_embed[fresh] = encoder(data.get("next")[fresh].select(*encoder.in_keys).copy()).get("embed")
+    nxt = data.get("next").reshape(-1).select("recurrent_state_h", "recurrent_state_c", "is_init").copy()
     nxt.set("is_init", torch.zeros_like(nxt.get("is_init")))
+    nxt.set("embed", next_embed.reshape(B * T, -1))
     with set_recurrent_mode(False):
-        next_value = net.critic(net.trunk(nxt)).get("state_value").reshape(B, T, 1)
+        next_value = net.critic(lstm(nxt)).get("state_value").reshape(B, T, 1)
     adv, target = generalized_advantage_estimate(
         gamma,
         lmbda,

@@ -69,3 +69,34 @@ def test_advantages_use_exact_next_values(batch):
     adv = data["advantage"]
     assert torch.allclose(target, adv + value, atol=1e-5)
     assert not done[:, :-1].all()
+
+
+def test_advantages_reuse_embeddings_exactly_across_episode_ends():
+    """compute_advantages encodes only the next observations that are not the following step's
+    observation; the result equals encoding every next observation."""
+    from torchrl.envs.utils import ExplorationType, set_exploration_type
+    from torchrl.modules import set_recurrent_mode
+    from torchrl.objectives.value.functional import generalized_advantage_estimate
+
+    from occrl.envs import make_env
+    from occrl.modules import make_occnet
+
+    torch.manual_seed(0)
+    net = make_occnet("paper")
+    env = make_env(batch_size=3, stage=1, seed=0, max_steps=4).append_transform(net.make_primer())
+    with torch.no_grad(), set_exploration_type(ExplorationType.RANDOM):
+        data = env.rollout(10, net.policy, break_when_any_done=False)
+    assert data["next", "done"][:, :-1].sum() >= 3  # episodes end inside the batch
+    got = compute_advantages(net, data.clone())
+    B, T = data.shape
+    with torch.no_grad():
+        nxt = data.get("next").reshape(-1).copy()
+        nxt.set("is_init", torch.zeros_like(nxt.get("is_init")))
+        with set_recurrent_mode(False):
+            next_value = net.critic(net.trunk(nxt)).get("state_value").reshape(B, T, 1)
+        with set_recurrent_mode(True):
+            value = net.critic(net.trunk(data.copy())).get("state_value")
+    adv, target = generalized_advantage_estimate(0.995, 0.95, value, next_value, data["next", "reward"], data["next", "done"],
+                                                 data["next", "terminated"])
+    torch.testing.assert_close(got["advantage"], adv, rtol=0, atol=1e-6)
+    torch.testing.assert_close(got["value_target"], target, rtol=0, atol=1e-6)
