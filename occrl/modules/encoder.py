@@ -40,5 +40,7 @@ class ConvEncoder(nn.Module):
 
     def forward(self, pixels: torch.Tensor) -> torch.Tensor:
         lead = pixels.shape[:-3]
-        x = self.net(pixels.reshape(-1, *pixels.shape[-3:]))
+        # channels-last activations: same values (to float rounding), ~1.7x (training) to ~2.5x (inference
+        # on 4-12 images) faster convolutions on CPU with these few channels (benchmarks/encoder_speed.py)
+        x = self.net(pixels.reshape(-1, *pixels.shape[-3:]).contiguous(memory_format=torch.channels_last))
         return x.reshape(*lead, -1)

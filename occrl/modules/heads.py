@@ -99,5 +99,5 @@ class HeatmapHead(nn.Module):
     def forward(self, belief: torch.Tensor) -> torch.Tensor:
         lead = belief.shape[:-1]
         x = self.project(belief.reshape(-1, belief.shape[-1])).reshape(-1, self.c0, self.side, self.side)
-        out = self.decode(x)
+        out = self.decode(x.contiguous(memory_format=torch.channels_last))  # as in ConvEncoder: faster, same values
         return out.reshape(*lead, *out.shape[1:])
