@@ -56,11 +56,16 @@ class TrainConfig:
     imitation_min_scale: float = 0.1
     imitation_buffer_iters: int = 8  # DAgger aggregates the labelled data of this many iterations
     imitation_updates: int = 0  # gradient steps per iteration on the aggregate (0 = epochs over the new batch)
-    # curriculum (paper: promote when hybrid 4x4 success > 80 %; proxy until the planner exists:
-    # the learner's own success on its training episodes)
+    # curriculum. promotion="hybrid" is the paper's rule: hybrid 4x4 success > promote_threshold,
+    # measured every promotion_eval_every PPO iterations on promotion_eval_tasks fixed validation
+    # tasks of the current stage. promotion="learner" is a cheap proxy: the learner's own success
+    # over its last promote_window training episodes.
     start_stage: int = 1
     promote_threshold: float = 0.8
     promote_window: int = 300  # episodes the success rate is measured over
+    promotion: str = "learner"  # "learner" | "hybrid"
+    promotion_eval_every: int = 50
+    promotion_eval_tasks: int = 30
     noise: float = 0.0
 
     @property
@@ -80,8 +85,9 @@ class TrainConfig:
 
 
 TRAIN_PRESETS: dict[str, TrainConfig] = {
-    # Paper Sec. V / VI-B: RMSProp, lr 5e-5, c1 0.5, c2 0.01, c3 1.0, gamma 0.995, M = 1500.
-    "paper": TrainConfig(),
+    # Paper Sec. V / VI-B: RMSProp, lr 5e-5, c1 0.5, c2 0.01, c3 1.0, gamma 0.995, M = 1500,
+    # promotion by hybrid 4x4 success.
+    "paper": TrainConfig(promotion="hybrid"),
     # What trains on this project's 2-core CPU machines: the paper's network and loss, Adam at a
     # higher learning rate, two epochs per batch, two collector processes, and a DAgger warm
     # start on the scripted retriever before PPO (see docs/training.md).

@@ -30,17 +30,24 @@ class Curriculum:
     window: int = 300
     history: deque = field(default_factory=deque)
 
-    def record(self, successes) -> bool:
-        """Add finished episodes' outcomes; returns True when this promoted the stage."""
+    def record(self, successes, promote: bool = True) -> bool:
+        """Add finished episodes' outcomes; returns True when this promoted the stage (never with
+        ``promote=False``: the window is then only a statistic, another rule promotes)."""
         for s in successes:
             self.history.append(bool(s))
             while len(self.history) > self.window:
                 self.history.popleft()
-        if self.stage < LAST_STAGE and len(self.history) >= self.window and self.success_rate > self.threshold:
-            self.stage += 1
-            self.history.clear()
-            return True
+        if promote and len(self.history) >= self.window and self.success_rate > self.threshold:
+            return self.promote()
         return False
+
+    def promote(self) -> bool:
+        """Move to the next stage (False at the last stage); the window starts afresh."""
+        if self.stage >= LAST_STAGE:
+            return False
+        self.stage += 1
+        self.history.clear()
+        return True
 
     @property
     def success_rate(self) -> float:

@@ -43,7 +43,8 @@ logger = logging.getLogger(__name__)
 CHECKPOINT = "checkpoint.pt"
 DAGGER_DATA = "dagger_buffer.pt"
 WEIGHTS = "weights.pt"
-WARM_START_WEIGHTS = "weights_warmstart.pt"  # the network at the end of the DAgger warm start, before PPO
+WARM_START_WEIGHTS = "weights_warmstart.pt"
+VALIDATION_SEED_BASE = 20_000_000  # hybrid-promotion tasks (held-out evaluation starts at 10_000_000)  # the network at the end of the DAgger warm start, before PPO
 METRICS = "metrics.jsonl"
 
 
@@ -54,7 +55,9 @@ _RUNTIME_SETTINGS = {"collector": {"multi", "ray"}}
 
 
 def _same_run_settings(saved: dict, current: dict) -> bool:
-    """Equal training settings, except a run collected by "multi" may resume on "ray" and back."""
+    """Equal training settings, except a run collected by "multi" may resume on "ray" and back.
+    Settings added after a checkpoint was written take their defaults (the behaviour it ran with)."""
+    saved = TrainConfig.from_dict(saved).to_dict()
     for key, interchangeable in _RUNTIME_SETTINGS.items():
         if saved.get(key) in interchangeable and current.get(key) in interchangeable:
             saved, current = {**saved, key: None}, {**current, key: None}
@@ -120,6 +123,10 @@ class Trainer:
     def __init__(self, config: TrainConfig, run_dir: str | Path, seed: int = 0, progress: bool = True,
                  checkpoint_every_s: float = 300.0, tensorboard: bool = True, ray_address: str | None = None,
                  max_worker_restarts: int = 2) -> None:
+        if config.promotion not in ("learner", "hybrid"):
+            raise ValueError(f"promotion must be 'learner' or 'hybrid', got {config.promotion!r}")
+        if config.promotion == "hybrid" and not config.heatmap:
+            raise ValueError("promotion='hybrid' needs the heat-map head (the hybrid planner uses it); use 'learner'")
         self.config = config
         self.ray_address = ray_address  # where the "ray" collector runs (None: a local Ray runtime)
         self.max_worker_restarts = max_worker_restarts
@@ -369,6 +376,22 @@ class Trainer:
             terms["loss_heatmap"] = c.heatmap_coeff * heatmap_loss(self.net.heatmap_head, td, c.heatmap_fraction)
         return terms
 
+    def _hybrid_success(self) -> float:
+        """The paper's promotion statistic: hybrid 4x4 success on fixed validation tasks of the
+        current stage (seeds from VALIDATION_SEED_BASE, apart from training and held-out seeds)."""
+        from occrl.eval.runner import run_episodes, task_scenes
+        from occrl.planners import HybridPlanner
+
+        c = self.config
+        seeds = list(range(VALIDATION_SEED_BASE, VALIDATION_SEED_BASE + c.promotion_eval_tasks))
+        planner = HybridPlanner(self.net, m=4, h=4, seed=0)
+        results = run_episodes(planner, task_scenes(self.curriculum.stage, seeds), seeds, c.noise, batch_size=1,
+                               primers=[self.net.make_primer()])
+        self.net.eval()
+        rate = float(np.mean([r.success for r in results]))
+        logger.info("hybrid 4x4 validation success at iteration %d (stage %d): %.2f", self.iteration, self.curriculum.stage, rate)
+        return rate
+
     def train(self, iterations: int | None = None, max_seconds: float | None = None) -> dict:
         """Run until ``iterations`` iterations in total (counting resumed ones) or ``max_seconds``."""
         c = self.config
@@ -397,11 +420,16 @@ class Trainer:
                 stats = episode_stats(data)
                 promoted = False
                 if beta == 0.0:
-                    promoted = self.curriculum.record(stats["success"])
+                    promoted = self.curriculum.record(stats["success"], promote=c.promotion == "learner")
                 self.iteration += 1
                 self.frames += data.numel()
                 dt = time.time() - t0
-                self.train_seconds += dt
+                hybrid_rate = None
+                if c.promotion == "hybrid" and phase == "ppo" and self.iteration % c.promotion_eval_every == 0:
+                    hybrid_rate = self._hybrid_success()
+                    if hybrid_rate > c.promote_threshold:
+                        promoted = self.curriculum.promote()
+                self.train_seconds += time.time() - t0
                 if phase == "imitation" and self.iteration == c.imitation_iters:
                     save_weights(self.run_dir / WARM_START_WEIGHTS, self.net, {"train_preset": c.preset, **self.state()})
                 summary = {
@@ -420,6 +448,8 @@ class Trainer:
                     "train_hours": self.train_seconds / 3600,
                     **losses,
                 }
+                if hybrid_rate is not None:
+                    summary["hybrid_success_rate"] = hybrid_rate
                 self._log(summary)
                 if promoted:
                     logger.info("promoted to stage %d at iteration %d", self.curriculum.stage, self.iteration)

@@ -101,3 +101,40 @@ def test_resume_from_an_older_checkpoint_supersedes_later_metric_rows(tmp_path):
     again.close()
     iterations = [json.loads(l)["iteration"] for l in (tmp_path / "metrics.jsonl").read_text().splitlines()]
     assert iterations == [1, 2]
+
+
+def test_hybrid_promotion_rule(tmp_path):
+    """promotion='hybrid' (the paper's rule) evaluates hybrid 4x4 on validation tasks and promotes on it."""
+    always = get_train_config("tiny", promotion="hybrid", promotion_eval_every=2, promotion_eval_tasks=2, promote_threshold=-1.0)
+    tr = Trainer(always, tmp_path / "a", seed=0, progress=False, tensorboard=False)
+    tr.train(iterations=3)
+    tr.close()
+    rows = [json.loads(l) for l in (tmp_path / "a" / "metrics.jsonl").read_text().splitlines()]
+    assert [r["stage"] for r in rows] == [1, 2, 2]
+    assert "hybrid_success_rate" in rows[1] and "hybrid_success_rate" not in rows[0]
+    never = get_train_config("tiny", promotion="hybrid", promotion_eval_every=1, promotion_eval_tasks=2, promote_threshold=1.0,
+                             promote_window=1)
+    tr = Trainer(never, tmp_path / "b", seed=0, progress=False, tensorboard=False)
+    tr.train(iterations=2)
+    tr.close()
+    assert tr.curriculum.stage == 1  # a rate of at most 1 never exceeds the threshold 1
+    # under the hybrid rule the learner's window is a statistic only
+    c = Curriculum(stage=1, threshold=0.5, window=2)
+    assert not c.record([True, True], promote=False) and c.stage == 1 and c.success_rate == 1.0
+    assert c.promote() and c.stage == 2 and c.success_rate == 0.0
+    with pytest.raises(ValueError, match="needs the heat-map head"):
+        Trainer(get_train_config("tiny", promotion="hybrid", heatmap=False), tmp_path / "c", seed=0, progress=False)
+    with pytest.raises(ValueError, match="promotion must be"):
+        Trainer(get_train_config("tiny", promotion="sometimes"), tmp_path / "d", seed=0, progress=False)
+
+
+def test_checkpoints_from_before_a_new_setting_still_resume(tmp_path):
+    cfg = get_train_config("tiny")
+    tr = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False)
+    tr.train(iterations=1)
+    tr.close()
+    ckpt = torch.load(tmp_path / "checkpoint.pt", weights_only=True)
+    for key in ("promotion", "promotion_eval_every", "promotion_eval_tasks"):
+        del ckpt["train_config"][key]  # as written before these settings existed
+    torch.save(ckpt, tmp_path / "checkpoint.pt")
+    assert Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False).iteration == 1
