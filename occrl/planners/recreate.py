@@ -76,14 +76,42 @@ def recreate(obs: TensorDictBase) -> RecreatedState:
         SceneObject(int(type_id[k]), verts[k, : nv[k]], tuple(pose[k]), bool(type_id[k] == target_type)) for k in np.flatnonzero(det)
     )
     tnv = int(obs.get("target_num_vertices").reshape(-1)[0])
-    return RecreatedState(
+    return _with_unseen_held_target(RecreatedState(
         objects=objects,
         gripper_pose=tuple(float(v) for v in obs.get("gripper_pose").cpu().numpy()),
         opening=float(obs.get("gripper_opening").reshape(-1)[0]),
         closed=bool(obs.get("gripper_closed").reshape(-1)[0]),
         target_type=target_type,
         target_vertices=obs.get("target_vertices").cpu().numpy().astype(float)[:tnv],
-    )
+    ))
+
+
+HELD_MIN_OPENING = 0.005  # m: closed fingers further apart than this stopped on something
+
+
+def _with_unseen_held_target(state: RecreatedState) -> RecreatedState:
+    """Closed fingers that stopped apart hold something. If no detected object lies between them
+    and the target is not detected, the held thing is taken to be the target (the fingers and the
+    camera's closeness hide an object in hand): it is placed between the fingers, turned so that
+    its width across them matches the opening, so the recreated world holds it too."""
+    if not state.closed or state.target_detected or state.opening < HELD_MIN_OPENING:
+        return state
+    _, touching = grasp_candidate(state.gripper_pose, state.opening + 2e-3, state.polygons())
+    if touching:  # a detected object between the fingers explains the opening
+        return state
+    angles = np.linspace(0.0, np.pi, 36, endpoint=False)
+    best, best_err, local = 0.0, np.inf, state.target_vertices
+    for a in angles:
+        c, s = np.cos(a), np.sin(a)
+        rot = state.target_vertices @ np.array([[c, s], [-s, c]])
+        err = abs(np.ptp(rot[:, 0]) - state.opening)
+        if err < best_err:
+            best, best_err, local = a, err, rot
+    y = float(np.clip(-local[:, 1].min() + 1e-3, 0.0, C.FINGER_LENGTH))  # centred across, inside the finger length
+    position = transform_points(np.array([[0.0, y]]), state.gripper_pose)[0]
+    pose = (float(position[0]), float(position[1]), float(state.gripper_pose[2] + best))
+    held = SceneObject(state.target_type, state.target_vertices, pose, True)
+    return replace(state, objects=state.objects + (held,))
 
 
 def target_fits(state: RecreatedState, pose) -> bool:

@@ -112,3 +112,27 @@ def test_hybrid_planner_runs_in_rollout_and_is_reproducible(net):
 def test_planner_rejects_a_net_without_heatmap():
     with pytest.raises(ValueError, match="heat-map head"):
         HybridPlanner(make_occnet("paper", heatmap=False))
+
+
+def test_closed_fingers_on_an_unseen_object_hold_the_target_in_the_recreated_world():
+    """Held against the camera the target is often not detected; the gripper's opening says the
+    fingers stopped on something, so the recreated world holds the target between them."""
+    from occrl.envs import observation_from_detections
+    from occrl.planners import make_world
+
+    rect = np.array([[-0.015, -0.03], [0.015, -0.03], [0.015, 0.03], [-0.015, 0.03]])  # 3 cm x 6 cm
+    obs = observation_from_detections((0.05, 0.1, 0.4), 0.06, [], target_type=1, target_vertices=rect, gripper_closed=True)
+    state = recreate(obs[0])
+    assert state.target_detected and len(state.objects) == 1
+    world = make_world(state)
+    assert world.held == 0  # grasped in the recreated world
+    # turned so that its 6 cm side spans the 6 cm opening
+    local = world.object_world_polygons()[0] - np.array(state.gripper_pose[:2])
+    c, s = np.cos(-0.4), np.sin(-0.4)
+    across = local @ np.array([[c, s], [-s, c]])
+    assert abs(np.ptp(across[:, 0]) - 0.06) < 2e-3
+    # nothing inferred when the fingers closed on nothing, are open, or the target is seen elsewhere
+    for opening, closed, dets in ((0.0, True, []), (0.085, False, []),
+                                  (0.06, True, [{"type_id": 1, "pose": (-0.1, 0.2, 0.0), "vertices": rect}])):
+        obs = observation_from_detections((0.05, 0.1, 0.4), opening, dets, target_type=1, target_vertices=rect, gripper_closed=closed)
+        assert len(recreate(obs[0]).objects) == len(dets)
