@@ -43,8 +43,8 @@ logger = logging.getLogger(__name__)
 CHECKPOINT = "checkpoint.pt"
 DAGGER_DATA = "dagger_buffer.pt"
 WEIGHTS = "weights.pt"
-WARM_START_WEIGHTS = "weights_warmstart.pt"
-VALIDATION_SEED_BASE = 20_000_000  # hybrid-promotion tasks (held-out evaluation starts at 10_000_000)  # the network at the end of the DAgger warm start, before PPO
+WARM_START_WEIGHTS = "weights_warmstart.pt"  # the network at the end of the DAgger warm start, before PPO
+VALIDATION_SEED_BASE = 20_000_000  # hybrid-promotion tasks (held-out evaluation starts at 10_000_000)
 METRICS = "metrics.jsonl"
 
 
