@@ -24,6 +24,17 @@ logger = logging.getLogger(__name__)
 PANEL = 256  # pixels per panel side
 
 
+def _panel_width(rgb: np.ndarray) -> Image.Image:
+    """An RGB picture scaled to the panel width, aspect kept."""
+    return Image.fromarray(rgb).resize((PANEL, int(PANEL * rgb.shape[0] / rgb.shape[1])), Image.BILINEAR)
+
+
+def _shelf_picture(gripper_pose, opening: float, polygons, is_target) -> Image.Image:
+    """The top-down shelf view of the given objects (target red) at panel width."""
+    labels = render_true_scene(np.asarray(gripper_pose, float), float(opening), polygons, is_target, SHELF_VIEW)
+    return _panel_width(labels_to_rgb(labels))
+
+
 def _true_panel(step: TensorDictBase) -> np.ndarray:
     priv = step.get("privileged")
     present = priv.get("object_present").numpy()
@@ -33,14 +44,8 @@ def _true_panel(step: TensorDictBase) -> np.ndarray:
     slot = int(priv.get("target_slot").reshape(-1)[0])
     world = transform_polygons(verts, poses)
     idx = np.flatnonzero(present)
-    labels = render_true_scene(
-        step.get("gripper_pose").numpy().astype(float),
-        float(step.get("gripper_opening").reshape(-1)[0]),
-        [world[k, : nv[k]] for k in idx],
-        [k == slot for k in idx],
-        SHELF_VIEW,
-    )
-    img = Image.fromarray(labels_to_rgb(labels)).resize((PANEL, int(PANEL * labels.shape[0] / labels.shape[1])), Image.BILINEAR)
+    img = _shelf_picture(step.get("gripper_pose").numpy(), step.get("gripper_opening").reshape(-1)[0],
+                         [world[k, : nv[k]] for k in idx], [k == slot for k in idx])
     return np.asarray(img)
 
 
@@ -95,7 +100,7 @@ def frame(step: TensorDictBase, caption: str = "", heatmap: np.ndarray | None = 
     panels = [_true_panel(step), _obs_panel(step, heatmap, decision)]
     if "camera_rgb" in step.keys():  # MujocoShelfEnv(record_camera=True): the real gripper-camera image
         cam = step.get("camera_rgb").permute(1, 2, 0).numpy()
-        panels.append(np.asarray(Image.fromarray(cam).resize((PANEL, int(PANEL * cam.shape[0] / cam.shape[1])), Image.BILINEAR)))
+        panels.append(np.asarray(_panel_width(cam)))
     h = max(p.shape[0] for p in panels) + 18
     out = np.full((h, sum(p.shape[1] for p in panels) + 6 * (len(panels) - 1), 3), 255, np.uint8)
     x = 0
@@ -164,10 +169,8 @@ def decision_panels(decision) -> list[np.ndarray]:
     panels = []
     for r, root in enumerate(decision.roots):
         st = root.state
-        labels = render_true_scene(np.asarray(st.gripper_pose, float), st.opening, st.polygons(), [o.is_target for o in st.objects], SHELF_VIEW)
-        img = Image.fromarray(labels_to_rgb(labels))
-        sx = PANEL / labels.shape[1]
-        img = img.resize((PANEL, int(labels.shape[0] * sx)), Image.BILINEAR)
+        img = _shelf_picture(st.gripper_pose, st.opening, st.polygons(), [o.is_target for o in st.objects])
+        sx = PANEL / SHELF_VIEW.shape[1]
         draw = ImageDraw.Draw(img)
         best = int(np.argmax(result.returns[r]))
         order = [i for i in range(result.returns.shape[1]) if i != best] + [best]  # best drawn last, on top
