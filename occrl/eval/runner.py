@@ -240,6 +240,7 @@ def _run_tasks_ray(method: str, weights, jobs: list, workers: int, address: str 
                 raise WorkerDiedError(f"Ray evaluation workers died {restarts} times ({type(err).__name__}: {err})") from err
             logger.error("a Ray evaluation worker died (%s); running its chunk on a new worker", type(err).__name__)
             actor = EvalWorker.remote()
+            actors.append(actor)  # killed with the others at the end
             queue.insert(0, k)
         else:
             bar.update(len(jobs[k][1]))
