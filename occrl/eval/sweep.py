@@ -21,7 +21,7 @@ from typing import Sequence
 
 import numpy as np
 
-from occrl.eval.runner import EVAL_SEED_BASE, EpisodeResult, run_tasks, summarize
+from occrl.eval.runner import EVAL_SEED_BASE, EpisodeResult, run_tasks, summarize, task_object_count
 
 __all__ = ["SWEEPS", "run_sweep", "summarize_sweep", "plot_sweep", "noise_sweep_objects"]
 
@@ -42,7 +42,7 @@ def noise_sweep_objects(seed: int) -> int:
         >>> [noise_sweep_objects(s) for s in range(5)]
         [8, 8, 7, 6, 9]
     """
-    return int(np.random.default_rng([int(seed), 7]).integers(1, 11))
+    return task_object_count(seed, 1, 10)
 
 
 def _point_path(out: Path, method: str, sweep: str, value: float) -> Path:
