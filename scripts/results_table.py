@@ -1,30 +1,66 @@
-"""Print a markdown table of `occrl eval --out` JSON files (success with 95 % interval, drops,
-actions, time per task), one row per file.
+"""Markdown tables of `occrl eval --out` JSON files.
 
-    python scripts/results_table.py ~/occrl-evals/*.json
+    python scripts/results_table.py results/heldout/*.json          # one row per file
+    python scripts/results_table.py --grid results/heldout/*.json   # methods x (stage, noise), as in the README
+
+The row table gives success with its 95 % interval, drops, actions and time per task; the grid
+gives success (95 % interval, drops) per method and stage at noise 0 and 0.15, for the 2D world
+with each stage's own object counts.
 """
 
 from __future__ import annotations
 
+import argparse
 import json
-import sys
 from pathlib import Path
 
+GRID_METHODS = ["hybrid-4x4", "hybrid-2x2", "hybrid-6x6", "hybrid-lim-4x4", "stochastic-gen", "stochastic", "greedy"]
+GRID_COLUMNS = [(1, 0.0), (2, 0.0), (3, 0.0), (1, 0.15), (2, 0.15), (3, 0.15)]
 
-def row(path: Path) -> str:
-    d = json.loads(path.read_text())
+
+def row(d: dict) -> str:
     lo, hi = d["success_ci95"]
     where = f"{d.get('world', 'pymunk')}, stage {d['stage']}" + (f", objects {d['objects']}" if d.get("objects") else "")
     return (f"| {d['method']} | {Path(str(d['network'])).name if d['network'] else '-'} | {where} | noise {d['noise']} | {d['tasks']} | "
             f"{d['success_rate']:.1%} ({lo:.1%}-{hi:.1%}) | {d['dropped']} | {d['mean_actions']:.1f} | {d['mean_seconds']:.2f} s |")
 
 
-def main(paths: list[str]) -> None:
-    print("| method | network | tasks from | noise | tasks | success (95 % CI) | dropped | actions | time per task |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
-    for p in paths:
-        print(row(Path(p)))
+def rows_table(results: list[dict]) -> str:
+    lines = ["| method | network | tasks from | noise | tasks | success (95 % CI) | dropped | actions | time per task |",
+             "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+    return "\n".join(lines + [row(d) for d in results]) + "\n"
+
+
+def grid_table(results: list[dict]) -> str:
+    """Methods x (stage, noise) on the shipped networks (a method run with --weights is left out)."""
+    cells: dict[str, dict] = {}
+    for d in results:
+        if d.get("world", "pymunk") != "pymunk" or d.get("objects") or str(d["network"]).endswith(".pt"):
+            continue
+        cells.setdefault(d["method"], {})[(d["stage"], d["noise"])] = d
+    lines = ["| method | " + " | ".join(f"stage {s}, noise {n:g}" for s, n in GRID_COLUMNS) + " |",
+             "| --- |" + " --- |" * len(GRID_COLUMNS)]
+    for m in GRID_METHODS:
+        out = []
+        for c in GRID_COLUMNS:
+            d = cells.get(m, {}).get(c)
+            if d is None:
+                out.append("not run")
+                continue
+            lo, hi = d["success_ci95"]
+            out.append(f"{d['success_rate'] * 100:.1f} % ({lo * 100:.1f}-{hi * 100:.1f})" + (f", {d['dropped']} dropped" if d["dropped"] else ""))
+        lines.append(f"| {m} | " + " | ".join(out) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--grid", action="store_true", help="methods x (stage, noise) instead of one row per file")
+    parser.add_argument("files", nargs="+")
+    args = parser.parse_args()
+    results = [json.loads(Path(f).read_text()) for f in args.files]
+    print(grid_table(results) if args.grid else rows_table(results), end="")
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    main()
