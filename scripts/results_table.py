@@ -2,6 +2,7 @@
 
     python scripts/results_table.py results/heldout/*.json          # one row per file
     python scripts/results_table.py --grid results/heldout/*.json   # methods x (stage, noise), as in the README
+    python scripts/results_table.py --compare A.json B.json         # episodes with the same outcome and length
 
 The row table gives success with its 95 % interval, drops, actions and time per task; the grid
 gives success (95 % interval, drops) per method and stage at noise 0 and 0.15, for the 2D world
@@ -53,12 +54,25 @@ def grid_table(results: list[dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def same_episodes(a: dict, b: dict) -> int:
+    """Tasks (matched by seed) whose episodes have the same success, drop and number of actions."""
+    other = {e["seed"]: e for e in b["episodes"]}
+    keys = ("success", "dropped", "actions")
+    return sum(all(e[k] == other[e["seed"]][k] for k in keys) for e in a["episodes"] if e["seed"] in other)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--grid", action="store_true", help="methods x (stage, noise) instead of one row per file")
+    parser.add_argument("--compare", action="store_true", help="two files: how many of their episodes are the same")
     parser.add_argument("files", nargs="+")
     args = parser.parse_args()
     results = [json.loads(Path(f).read_text()) for f in args.files]
+    if args.compare:
+        if len(results) != 2:
+            parser.error("--compare takes exactly two files")
+        print(f"{same_episodes(*results)} of {len(results[0]['episodes'])} episodes the same")
+        return
     print(grid_table(results) if args.grid else rows_table(results), end="")
 
 
