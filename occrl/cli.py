@@ -111,8 +111,13 @@ def _train(args: argparse.Namespace) -> int:
     if args.no_heatmap:
         overrides["heatmap"] = False
     config = get_train_config(args.preset, **overrides)
+    init_weights = args.init_weights
+    if init_weights is not None and not Path(init_weights).exists():
+        from occrl.pretrained import pretrained_path
+
+        init_weights = pretrained_path(init_weights)  # ValueError naming the shipped networks otherwise
     trainer = Trainer(config, args.run_dir, seed=args.seed, progress=not args.no_progress, checkpoint_every_s=args.checkpoint_every,
-                      ray_address=args.ray_address)
+                      ray_address=args.ray_address, init_weights=init_weights)
     _stop_on_signals()
     try:
         summary = trainer.train(iterations=args.iterations, max_seconds=args.max_hours * 3600 if args.max_hours else None)
@@ -301,7 +306,7 @@ def main(argv: list[str] | None = None) -> int:
     d.set_defaults(func=_demo)
 
     t = sub.add_parser("train", help="train OccNet (curriculum PPO + heat-map loss); resumes from RUN_DIR")
-    t.add_argument("--preset", default="paper", help="training preset: paper, cpu, tiny")
+    t.add_argument("--preset", default="paper", help="training preset: paper, cpu, cpu-finetune, tiny")
     t.add_argument("--run-dir", required=True, help="run folder (checkpoint, logs, curves); keep it outside the source tree")
     t.add_argument("--seed", type=int, default=0)
     t.add_argument("--iterations", type=int, default=None, help="stop after this many iterations in total")
@@ -315,6 +320,9 @@ def main(argv: list[str] | None = None) -> int:
     t.add_argument("--num-envs", type=int, default=None)
     t.add_argument("--imitation-iters", type=int, default=None, help="DAgger warm-start iterations (0 = PPO from scratch)")
     t.add_argument("--no-heatmap", action="store_true", help="train the net without heat-map head (baselines)")
+    t.add_argument("--init-weights", default=None,
+                   help="start a new run from these weights: a weights file (e.g. a run's weights_warmstart.pt) "
+                        "or a shipped name (occnet, occnet-noheatmap); used by the cpu-finetune preset")
     t.add_argument("--checkpoint-every", type=float, default=300.0, help="seconds between checkpoints")
     t.add_argument("--no-progress", action="store_true")
     t.set_defaults(func=_train)

@@ -1,8 +1,10 @@
-"""Baselines: the privileged scripted retriever and the hierarchical OMPL planner (paper Alg. 3)."""
+"""Baselines: the Greedy and Stochastic policies (:class:`NetPolicy`), the privileged scripted
+retriever and the hierarchical OMPL planner (paper Alg. 3)."""
 
+from occrl.baselines.policies import NetPolicy
 from occrl.baselines.scripted import ScriptedRetriever
 
-__all__ = ["ScriptedRetriever", "HierarchicalPlanner"]
+__all__ = ["NetPolicy", "ScriptedRetriever", "HierarchicalPlanner"]
 
 
 def __getattr__(name: str):

@@ -75,6 +75,8 @@ def make_method(name: str, weights: str | Path | None = None, seed: int = 0) -> 
     if name in ("greedy", "stochastic", "stochastic-gen"):
         net_name = "occnet" if name == "stochastic-gen" else "occnet-noheatmap"
         net = _net(net_name, weights)
-        exploration = ExplorationType.DETERMINISTIC if name == "greedy" else ExplorationType.RANDOM
-        return Method(name, net.policy, [net.make_primer()], exploration, network=str(weights or net_name))
+        from occrl.baselines import NetPolicy
+
+        policy = NetPolicy(net, stochastic=name != "greedy", seed=seed)
+        return Method(name, policy, [net.make_primer()], ExplorationType.DETERMINISTIC, network=str(weights or net_name))
     raise ValueError(f"unknown method {name!r}; available: {METHODS}")

@@ -134,10 +134,13 @@ def run_episodes(
                        backend=world)
         for p in primers:
             env.append_transform(p.clone() if hasattr(p, "clone") else p)
-        # randomness of the decision maker follows the chunk's first task seed, so results do not
-        # depend on how tasks are spread over processes
+        # randomness of the decision maker follows the task seeds: per world where the policy can
+        # (NetPolicy), else the chunk's first seed; either way results do not depend on how
+        # tasks are spread over processes
         torch.manual_seed(int(chunk_seeds[0]))
-        if hasattr(policy, "reseed"):
+        if hasattr(policy, "reseed_worlds"):
+            policy.reseed_worlds([int(s) for s in chunk_seeds])
+        elif hasattr(policy, "reseed"):
             policy.reseed(int(chunk_seeds[0]))
         t = time.time()
         with torch.no_grad(), set_exploration_type(exploration):

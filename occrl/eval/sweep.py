@@ -6,7 +6,8 @@ Two sweeps, the same task seeds for every method:
 * noise: 0.0 to 0.25 by 0.05, with a random number of objects (1 to 10, drawn from the task seed).
 
 Each finished point (method, sweep, value) is cached as JSON under ``out/points/``, so an
-interrupted sweep resumes where it stopped. ``summarize_sweep`` writes ``results.csv`` and
+interrupted sweep resumes where it stopped, and a point can be extended by more task seeds later
+(``chunk`` runs the sweep in rounds: every point first gets ``chunk`` tasks, then the next ones). ``summarize_sweep`` writes ``results.csv`` and
 ``results.json``; ``plot_sweep`` draws the paper's Fig. 5 layout (success, time and actions per
 task against clutter and against noise, one line per method).
 """
@@ -77,9 +78,16 @@ def run_sweep(
     progress: bool = True,
     backend: str = "local",
     ray_address: str | None = None,
+    chunk: int | None = None,
 ) -> Path:
-    """Run (or resume) the sweep; returns the output folder. ``backend="ray"`` spreads each
-    point's tasks over Ray actors (see :func:`occrl.eval.runner.run_tasks`).
+    """Run (or resume, or extend) the sweep; returns the output folder.
+
+    Points grow in rounds of ``chunk`` tasks (default: all ``tasks`` at once): every point gets
+    its first ``chunk`` seeds before any gets more, so an interrupted sweep leaves a complete
+    figure with wider intervals rather than half a figure. A cached point holding fewer seeds
+    than asked is extended with the missing ones (a point run with 50 tasks grows to 300 by
+    running seeds 51-300 only). ``backend="ray"`` spreads each point's tasks over Ray actors
+    (see :func:`occrl.eval.runner.run_tasks`).
 
     Examples:
         >>> import os, tempfile
@@ -91,26 +99,42 @@ def run_sweep(
     """
     from occrl.eval.methods import PLANNERS
 
+    if tasks < 1 or (chunk is not None and chunk < 1):
+        raise ValueError(f"tasks and chunk must be >= 1, got tasks={tasks}, chunk={chunk}")
     out = Path(out)
     (out / "points").mkdir(parents=True, exist_ok=True)
-    seeds = list(range(first_seed, first_seed + tasks))
-    for sweep in sweeps:
-        for value in (values or SWEEPS)[sweep]:
-            for method in methods:
-                path = _point_path(out, method, sweep, value)
-                if path.exists():
-                    continue
-                b = 1 if method in PLANNERS else batch
-                results = _run_point(method, sweep, value, seeds, b, workers, weights, progress, backend=backend,
-                                     ray_address=ray_address)
-                point = {"method": method, "sweep": sweep, "value": value, **summarize(results), "episodes": [r.to_dict() for r in results]}
-                tmp = path.with_suffix(".tmp")
-                tmp.write_text(json.dumps(point))
-                tmp.replace(path)
-                logger.info("%s %s=%g: success %.2f", method, sweep, value, point["success_rate"])
+    chunk = chunk or tasks
+    for upto in list(range(chunk, tasks, chunk)) + [tasks]:
+        seeds = list(range(first_seed, first_seed + upto))
+        for sweep in sweeps:
+            for value in (values or SWEEPS)[sweep]:
+                for method in methods:
+                    path = _point_path(out, method, sweep, value)
+                    done = _cached_episodes(path)
+                    missing = [s for s in seeds if s not in done]
+                    if not missing:
+                        continue
+                    b = 1 if method in PLANNERS else batch
+                    for r in _run_point(method, sweep, value, missing, b, workers, weights, progress, backend=backend,
+                                        ray_address=ray_address):
+                        done[r.seed] = r
+                    results = [done[s] for s in sorted(done)]
+                    point = {"method": method, "sweep": sweep, "value": value, **summarize(results),
+                             "episodes": [r.to_dict() for r in results]}
+                    tmp = path.with_suffix(".tmp")
+                    tmp.write_text(json.dumps(point))
+                    tmp.replace(path)
+                    logger.info("%s %s=%g (%d tasks): success %.2f", method, sweep, value, len(results), point["success_rate"])
     summarize_sweep(out)
     plot_sweep(out)
     return out
+
+
+def _cached_episodes(path: Path) -> dict[int, EpisodeResult]:
+    """The episodes a cached point already holds, by seed (empty when there is no point yet)."""
+    if not path.exists():
+        return {}
+    return {e["seed"]: EpisodeResult(**e) for e in json.loads(path.read_text())["episodes"]}
 
 
 def _points(out: Path) -> list[dict]:

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from occrl.training.checkpoint import load_weights
 
-__all__ = ["load_pretrained", "available", "model_card"]
+__all__ = ["load_pretrained", "available", "model_card", "pretrained_path"]
 
 _DIR = Path(__file__).resolve().parent
 _FILES = {"occnet": "occnet.pt", "occnet-noheatmap": "occnet-noheatmap.pt"}
@@ -56,9 +56,28 @@ def load_pretrained(name: str = "occnet"):
         >>> import occrl
         >>> net = occrl.load_pretrained("occnet")  # doctest: +SKIP
     """
+    return load_weights(pretrained_path(name))
+
+
+def pretrained_path(name: str) -> Path:
+    """The weights file of a shipped network (e.g. to start training from it).
+
+    Raises:
+        ValueError: for an unknown name (lists the known ones).
+        FileNotFoundError: when the package was installed without that weights file.
+
+    Examples:
+        >>> from occrl.pretrained import pretrained_path
+        >>> pretrained_path("occnet").name
+        'occnet.pt'
+        >>> pretrained_path("occnet-v9")
+        Traceback (most recent call last):
+            ...
+        ValueError: unknown pretrained network 'occnet-v9'; known: ['occnet', 'occnet-noheatmap']
+    """
     if name not in _FILES:
         raise ValueError(f"unknown pretrained network {name!r}; known: {sorted(_FILES)}")
     path = _DIR / _FILES[name]
     if not path.is_file():
         raise FileNotFoundError(f"{path} is missing: this installation has no weights for {name!r} (shipped: {available()})")
-    return load_weights(path)
+    return path

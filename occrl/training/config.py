@@ -46,7 +46,7 @@ class TrainConfig:
     entropy_coeff: float = 0.01  # c2
     heatmap_coeff: float = 1.0  # c3
     heatmap_fraction: float = 1.0  # share of frames whose heat-map is decoded per minibatch
-    batch_norm_frames: int = 1500  # frames used to refresh batch-norm statistics per iteration
+    batch_norm_frames: int = 1500  # frames used to refresh batch-norm statistics per iteration (0 = frozen)
     gamma: float = C.GAMMA
     gae_lambda: float = 0.95
     # imitation warm start (DAgger on the privileged scripted retriever); 0 = PPO from scratch
@@ -56,6 +56,14 @@ class TrainConfig:
     imitation_min_scale: float = 0.1
     imitation_buffer_iters: int = 8  # DAgger aggregates the labelled data of this many iterations
     imitation_updates: int = 0  # gradient steps per iteration on the aggregate (0 = epochs over the new batch)
+    # PPO fine-tuning of a warm-started net (beyond the paper): the first critic_warmup_iters PPO
+    # iterations train only the value (and heat-map) head, so advantages are sound before the policy
+    # moves (the value head only: through the shared trunk the critic's early errors would move the
+    # policy); ppo_bc_coeff > 0 adds loss_bc, the expert's negative log-likelihood on every PPO batch
+    # (the privileged scripted retriever labels the learner's own frames, as in DAgger).
+    critic_warmup_iters: int = 0
+    ppo_bc_coeff: float = 0.0
+    target_kl: float = 0.0  # > 0: stop an iteration's PPO epochs once a minibatch's approximate KL exceeds 1.5 x this
     # curriculum. promotion="hybrid" is the paper's rule: hybrid 4x4 success > promote_threshold,
     # measured every promotion_eval_every PPO iterations on promotion_eval_tasks fixed validation
     # tasks of the current stage. promotion="learner" is a cheap proxy: the learner's own success
@@ -105,6 +113,29 @@ TRAIN_PRESETS: dict[str, TrainConfig] = {
         imitation_updates=16,
         heatmap_fraction=0.25,
         batch_norm_frames=400,
+    ),
+    # PPO after the "cpu" warm start, started from its weights (``occrl train --init-weights``):
+    # the plain continuation (lr 3e-4, entropy bonus, no critic warm-up) collapsed within 15
+    # iterations (docs/training.md). Here: steps 30 times smaller (one Adam step at 3e-5 already
+    # moved the policy by an approximate KL of 0.11), no entropy bonus (the imitated policy explores
+    # with its own spread), 10 value-head-only iterations, the expert's likelihood as a
+    # regulariser, early stop at an approximate KL of 0.03, batch-norm statistics frozen (refreshed
+    # on the learner's own frames they drifted and alone, with a learning rate of 0, took stage-1
+    # training success from ~0.78 to ~0.6 within 6 iterations), and the paper's promotion rule.
+    "cpu-finetune": TrainConfig(
+        preset="cpu-finetune",
+        optimizer="adam",
+        lr=1e-5,
+        epochs=2,
+        collector="multi",
+        num_envs=32,
+        entropy_coeff=0.0,
+        critic_warmup_iters=10,
+        ppo_bc_coeff=0.5,
+        target_kl=0.02,
+        heatmap_fraction=0.25,
+        batch_norm_frames=0,
+        promotion="hybrid",
     ),
     # A seconds-long configuration for tests and smoke runs.
     "tiny": TrainConfig(preset="tiny", num_envs=4, steps_per_env=8, epochs=1, minibatch_envs=2, promote_window=8, imitation_updates=3),

@@ -4,10 +4,12 @@ One iteration, top to bottom:
 
 1. collect ``num_envs x steps_per_env`` frames with the current stochastic policy (every episode
    starts afresh; the seed of iteration ``i`` is ``seed + i``, so a resumed run is exact);
-2. refresh batch-norm statistics on the batch, then compute values and GAE advantages;
+2. compute values and GAE advantages;
 3. optimise for ``epochs`` passes over minibatches of whole sequences: PPO + c3 x heat-map BCE, or,
    during the warm start, the expert's negative log-likelihood + value + heat-map losses;
-4. log, feed the curriculum with the finished episodes, checkpoint every few minutes.
+4. refresh batch-norm statistics on the batch (after the update, so that the update sees the
+   function that collected the batch: PPO's probability ratio starts at exactly 1);
+5. log, feed the curriculum with the finished episodes, checkpoint every few minutes.
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ from occrl.baselines.scripted import ScriptedRetriever
 from occrl.envs import make_env
 from occrl.modules import make_occnet
 from occrl.objectives import PPOHeatmapLoss, compute_advantages, heatmap_loss, imitation_nll
-from occrl.training.checkpoint import load_checkpoint, save_checkpoint, save_weights
+from occrl.training.checkpoint import load_checkpoint, load_weights, save_checkpoint, save_weights
 from occrl.training.config import TrainConfig
 from occrl.training.curriculum import Curriculum
 from occrl.training.dagger import ExpertMixPolicy, label_with_expert
@@ -46,12 +48,19 @@ WEIGHTS = "weights.pt"
 WARM_START_WEIGHTS = "weights_warmstart.pt"  # the network at the end of the DAgger warm start, before PPO
 VALIDATION_SEED_BASE = 20_000_000  # hybrid-promotion tasks (held-out evaluation starts at 10_000_000)
 METRICS = "metrics.jsonl"
+PPO_DIAGNOSTICS = ("kl_approx", "clip_fraction", "entropy")  # (averaged over the minibatches seen)  # ClipPPOLoss outputs written to the metrics
 
 
 RAY_WORKER_MEMORY = 2 * 1024**3  # bytes reserved per Ray collector worker
 
 # settings that change where frames are computed but not which: a run may resume under another one
 _RUNTIME_SETTINGS = {"collector": {"multi", "ray"}}
+
+
+def _sha256(path: str | Path) -> str:
+    import hashlib
+
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
 def _same_run_settings(saved: dict, current: dict) -> bool:
@@ -122,7 +131,7 @@ class Trainer:
 
     def __init__(self, config: TrainConfig, run_dir: str | Path, seed: int = 0, progress: bool = True,
                  checkpoint_every_s: float = 300.0, tensorboard: bool = True, ray_address: str | None = None,
-                 max_worker_restarts: int = 2) -> None:
+                 max_worker_restarts: int = 2, init_weights: str | Path | None = None) -> None:
         if config.promotion not in ("learner", "hybrid"):
             raise ValueError(f"promotion must be 'learner' or 'hybrid', got {config.promotion!r}")
         if config.promotion == "hybrid" and not config.heatmap:
@@ -148,6 +157,8 @@ class Trainer:
             heatmap_coeff=config.heatmap_coeff,
             gamma=config.gamma,
             heatmap_fraction=config.heatmap_fraction,
+            bc_coeff=config.ppo_bc_coeff,
+            bc_min_scale=config.imitation_min_scale,
         )
         params = list(self.net.parameters())
         if config.optimizer == "rmsprop":
@@ -179,6 +190,18 @@ class Trainer:
                     logger.warning("no %s next to the checkpoint: the DAgger data set restarts empty (resume not exact)", DAGGER_DATA)
             logger.info("resumed %s at iteration %d (stage %d, %d frames)", ckpt, self.iteration, self.curriculum.stage, self.frames)
             self._truncate_metrics()
+            self.init_weights = st.get("init_weights")
+            if init_weights is not None and (self.init_weights or {}).get("sha256") != _sha256(init_weights):
+                # the checkpoint holds the weights; the starting point only matters for the record
+                logger.warning("resuming %s, which started from %s, not from the given %s (the latter is ignored)",
+                               ckpt, (self.init_weights or {}).get("path", "scratch"), init_weights)
+        else:
+            self.init_weights = None
+            if init_weights is not None:
+                load_weights(init_weights, self.net)  # CheckpointError for another architecture or a bad file
+                self.net.eval()
+                self.init_weights = {"path": str(init_weights), "sha256": _sha256(init_weights)}
+                logger.info("new run from the weights in %s", init_weights)
         self._collector = None
         self._collector_stage = None
         self._loggers = self._make_loggers(tensorboard)
@@ -208,7 +231,12 @@ class Trainer:
         return max(c.imitation_beta_min, 1.0 - self.iteration / c.imitation_beta_iters)
 
     def _phase(self) -> str:
-        return "imitation" if self.iteration < self.config.imitation_iters else "ppo"
+        c = self.config
+        if self.iteration < c.imitation_iters:
+            return "imitation"
+        if self.iteration < c.imitation_iters + c.critic_warmup_iters:
+            return "critic_warmup"
+        return "ppo"
 
     def _get_collector(self):
         c = self.config
@@ -320,6 +348,8 @@ class Trainer:
     def _refresh_batch_norm(self, data: TensorDictBase) -> None:
         """Update the encoder's batch-norm running statistics on this batch (no gradients); the
         net otherwise stays in eval mode so collection and update see the same function."""
+        if self.config.batch_norm_frames <= 0:  # statistics frozen
+            return
         flat = data.reshape(-1)
         n = min(self.config.batch_norm_frames, flat.shape[0])
         frames = flat[torch.randperm(flat.shape[0])[:n]]
@@ -349,6 +379,7 @@ class Trainer:
                     sums[k] = sums.get(k, 0.0) + float(v.detach())
                 count += 1
             return {k: v / count for k, v in sums.items()}
+        stopped_early = False
         for _ in range(c.epochs):
             order = torch.randperm(B)
             for start in range(0, B, c.minibatch_envs):
@@ -356,13 +387,35 @@ class Trainer:
                 if phase == "ppo":
                     out = self.loss(mb)
                     terms = {k: v for k, v in out.items() if k.startswith("loss_")}
+                    for k in PPO_DIAGNOSTICS:  # logged, not optimised
+                        if k in out.keys():
+                            sums[k] = sums.get(k, 0.0) + float(out.get(k))
+                    if c.target_kl > 0 and count > 0 and float(out.get("kl_approx")) > 1.5 * c.target_kl:
+                        stopped_early = True  # the policy moved far enough on this batch
+                        break
+                elif phase == "critic_warmup":
+                    terms = self._critic_terms(mb)
                 else:
                     terms = self._imitation_terms(mb)
                 self._step(terms)
                 for k, v in terms.items():
                     sums[k] = sums.get(k, 0.0) + float(v.detach())
                 count += 1
-        return {k: v / max(count, 1) for k, v in sums.items()}
+            if stopped_early:
+                break
+        means = {k: v / max(count, 1) for k, v in sums.items()}
+        if phase == "ppo":
+            means["updates"] = count
+        return means
+
+    def _critic_terms(self, mb: TensorDictBase) -> dict:
+        """Value loss of the value head alone (the shared trunk is not trained: through it the
+        critic's large early errors would move the policy before PPO starts)."""
+        td = mb.copy()
+        with torch.no_grad(), set_recurrent_mode(True):
+            td = self.net.trunk(td)
+        value = self.net.critic(td).get("state_value")
+        return {"loss_critic": self.config.critic_coeff * torch.nn.functional.smooth_l1_loss(value, td.get("value_target"))}
 
     def _imitation_terms(self, mb: TensorDictBase) -> dict:
         c = self.config
@@ -412,11 +465,13 @@ class Trainer:
                 beta = self._beta()
                 data = self._collect()
                 t_collect = time.time() - t0
-                if phase == "imitation":
+                if phase == "imitation" or c.ppo_bc_coeff > 0:
                     label_with_expert(data, self.expert)
-                self._refresh_batch_norm(data)
                 compute_advantages(self.net, data, c.gamma, c.gae_lambda)
                 losses = self._update(data, phase)
+                # after the update, for the next collection: refreshed between collection and update,
+                # the statistics changed the policy under PPO's ratio (|log-prob change| 0.13 on average)
+                self._refresh_batch_norm(data)
                 stats = episode_stats(data)
                 promoted = False
                 if beta == 0.0:
@@ -487,6 +542,7 @@ class Trainer:
             "train_seconds": self.train_seconds,
             "seed": self.seed,
             "curriculum": self.curriculum.state_dict(),
+            "init_weights": self.init_weights,
         }
 
     def save(self) -> None:

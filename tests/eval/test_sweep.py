@@ -37,3 +37,19 @@ def test_wilson_interval():
     assert lo < 0.9 < hi and 0 <= lo and hi <= 1
     assert wilson_interval(0, 0) == (0.0, 1.0)
     assert summarize([])["tasks"] == 0
+
+
+def test_a_point_extended_by_more_seeds_equals_the_point_run_at_once(tmp_path):
+    values = {"clutter": [2.0]}
+    run_sweep(["stochastic-gen"], tmp_path / "grown", tasks=2, first_seed=200, sweeps=("clutter",), values=values,
+              batch=3, progress=False)
+    run_sweep(["stochastic-gen"], tmp_path / "grown", tasks=5, first_seed=200, sweeps=("clutter",), values=values,
+              batch=3, progress=False, chunk=2)  # rounds of 2: seeds 202-203, then 204
+    run_sweep(["stochastic-gen"], tmp_path / "once", tasks=5, first_seed=200, sweeps=("clutter",), values=values,
+              batch=3, progress=False)
+    # batches differ: grown ran [200, 201], [202, 203], [204]; once ran [200, 201, 202], [203, 204]
+    grown, once = (json.loads((tmp_path / d / "points" / "stochastic-gen__clutter__2.json").read_text()) for d in ("grown", "once"))
+    assert [e["seed"] for e in grown["episodes"]] == list(range(200, 205))
+    key = lambda p: [(e["seed"], e["success"], e["actions"]) for e in p["episodes"]]  # noqa: E731
+    assert key(grown) == key(once)
+    assert grown["tasks"] == 5 and grown["success_rate"] == once["success_rate"]

@@ -1,0 +1,85 @@
+"""Policy baselines of the paper (Sec. VI-C): the network's policy head alone, no planning.
+
+* **Greedy**: the mean action of the policy head (``stochastic=False``);
+* **Stochastic**: an action sampled from the policy head (``stochastic=True``).
+
+Either runs on the net with heat-map head (``stochastic-gen`` / ``greedy-gen`` in the tables) or
+without (``stochastic`` / ``greedy``: the paper's baselines, trained without the heat-map loss).
+
+Sampling is reproducible per task: :meth:`NetPolicy.reseed_worlds` gives every world of a batch
+its own generator, seeded by that world's task seed, so an episode does not depend on which
+other tasks share its batch (a sweep point extended by more seeds equals the point run at once).
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import torch
+from tensordict import TensorDictBase
+from tensordict.nn import TensorDictModuleBase
+from torchrl.envs.utils import ExplorationType, set_exploration_type
+
+from occrl.modules.occnet import OccNet
+
+__all__ = ["NetPolicy"]
+
+
+class NetPolicy(TensorDictModuleBase):
+    """Greedy (mean) or Stochastic (sampled) action of an :class:`~occrl.modules.OccNet`.
+
+    Args:
+        net: the network (with or without heat-map head); its recurrent state travels through
+            the tensordict as for ``net.policy`` (append ``net.make_primer()`` to the env).
+        stochastic: sample ``loc + scale * eps`` (the policy's Normal) instead of taking ``loc``.
+        seed: seeds the sampling until :meth:`reseed_worlds` or :meth:`reseed` is called.
+
+    Examples:
+        >>> import torch
+        >>> from occrl.baselines import NetPolicy
+        >>> from occrl.envs import make_env
+        >>> from occrl.modules import make_occnet
+        >>> net = make_occnet("paper", heatmap=False).eval()
+        >>> policy = NetPolicy(net, stochastic=True)
+        >>> def actions(seeds):
+        ...     env = make_env(batch_size=len(seeds), seed=seeds).append_transform(net.make_primer())
+        ...     policy.reseed_worlds(seeds)
+        ...     with torch.no_grad():
+        ...         return env.rollout(3, policy)["action"]
+        >>> a, b = actions([5, 6]), actions([6])  # task 6's actions whatever shares its batch
+        >>> a.shape, torch.allclose(a[1], b[0], atol=1e-6)  # (batched convolutions: float rounding)
+        (torch.Size([2, 3, 4]), True)
+    """
+
+    def __init__(self, net: OccNet, stochastic: bool, seed: int = 0) -> None:
+        super().__init__()
+        self.net = net
+        self.stochastic = stochastic
+        self.in_keys = list(net.policy.in_keys)
+        self.out_keys = list(net.policy.out_keys)
+        self._generators: list[torch.Generator] = []
+        self.reseed(seed)
+
+    def reseed(self, seed: int) -> None:
+        """One generator for the whole batch (used when the batch size is not that of
+        :meth:`reseed_worlds`)."""
+        self._shared = torch.Generator().manual_seed(int(seed))
+        self._generators = []
+
+    def reseed_worlds(self, seeds: Sequence[int]) -> None:
+        """World ``i`` of the next batches samples from a generator seeded by ``seeds[i]``."""
+        self._generators = [torch.Generator().manual_seed(int(s)) for s in seeds]
+
+    def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+        with set_exploration_type(ExplorationType.DETERMINISTIC):
+            tensordict = self.net.policy(tensordict)
+        if not self.stochastic:
+            return tensordict
+        loc, scale = tensordict.get("loc"), tensordict.get("scale")
+        flat_loc = loc.reshape(-1, loc.shape[-1])
+        if len(self._generators) == flat_loc.shape[0]:
+            eps = torch.stack([torch.randn(flat_loc.shape[-1], generator=g) for g in self._generators])
+        else:
+            eps = torch.randn(flat_loc.shape, generator=self._shared)
+        tensordict.set("action", loc + scale * eps.reshape(loc.shape).to(loc.dtype))
+        return tensordict
