@@ -154,10 +154,10 @@ def _eval(args: argparse.Namespace) -> int:
         try:
             out = run_sweep(methods, args.out or "occrl-sweep", args.tasks, args.seed, batch=args.batch, workers=args.workers,
                             weights=args.weights, progress=not args.no_progress, backend=args.backend,
-                            ray_address=args.ray_address)
+                            ray_address=args.ray_address, chunk=args.chunk, films=True)
         finally:
             _stop_ray_if_used(args)
-        print(f"wrote {out / 'results.csv'}, {out / 'results.json'}, {out / 'sweep.png'}")
+        print(f"wrote {out / 'results.csv'}, {out / 'results.json'}, {out / 'sweep.png'}, {out / 'films'}")
         return 0
     if not args.method:
         print("give --method (or --sweep)", file=sys.stderr)
@@ -331,6 +331,9 @@ def main(argv: list[str] | None = None) -> int:
     e.add_argument("--method", help="hybrid-2x2, hybrid-4x4, hybrid-6x6, hybrid-lim-4x4, greedy, stochastic, stochastic-gen, scripted")
     e.add_argument("--sweep", action="store_true", help="the papers' clutter and noise sweeps (resumable; --out is a folder)")
     e.add_argument("--methods", default=None, help="comma-separated methods for --sweep (default: all but scripted)")
+    e.add_argument("--chunk", type=int, default=None,
+                   help="with --sweep: rounds of this many tasks (every point gets them before any gets more), so an "
+                        "interrupted sweep leaves a complete figure; cached points are extended, never recomputed")
     e.add_argument("--stage", type=int, default=1, choices=[1, 2, 3])
     e.add_argument("--objects", default=None,
                    help="object count per task: a number, or a range like 1-10 (each task draws its count from its seed)")

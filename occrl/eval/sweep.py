@@ -24,7 +24,7 @@ import numpy as np
 
 from occrl.eval.runner import EVAL_SEED_BASE, EpisodeResult, run_tasks, summarize, task_object_count
 
-__all__ = ["SWEEPS", "run_sweep", "summarize_sweep", "plot_sweep", "noise_sweep_objects"]
+__all__ = ["SWEEPS", "run_sweep", "summarize_sweep", "plot_sweep", "sweep_films", "noise_sweep_objects"]
 
 logger = logging.getLogger(__name__)
 
@@ -79,6 +79,7 @@ def run_sweep(
     backend: str = "local",
     ray_address: str | None = None,
     chunk: int | None = None,
+    films: bool = False,
 ) -> Path:
     """Run (or resume, or extend) the sweep; returns the output folder.
 
@@ -87,7 +88,8 @@ def run_sweep(
     figure with wider intervals rather than half a figure. A cached point holding fewer seeds
     than asked is extended with the missing ones (a point run with 50 tasks grows to 300 by
     running seeds 51-300 only). ``backend="ray"`` spreads each point's tasks over Ray actors
-    (see :func:`occrl.eval.runner.run_tasks`).
+    (see :func:`occrl.eval.runner.run_tasks`). ``films=True`` ends with :func:`sweep_films` for
+    hybrid 4x4 (or the first method).
 
     Examples:
         >>> import os, tempfile
@@ -127,6 +129,8 @@ def run_sweep(
                     logger.info("%s %s=%g (%d tasks): success %.2f", method, sweep, value, len(results), point["success_rate"])
     summarize_sweep(out)
     plot_sweep(out)
+    if films:
+        sweep_films(out, "hybrid-4x4" if "hybrid-4x4" in methods else methods[0], weights=weights)
     return out
 
 
@@ -216,3 +220,66 @@ def plot_sweep(out: str | Path) -> Path:
     path = out / "sweep.png"
     fig.savefig(path, dpi=100)
     return path
+
+
+def sweep_films(out: str | Path, method: str, solved: int = 3, failed: int = 1, weights=None) -> list[Path]:
+    """Film strips (paper Fig. 6 style) of ``solved`` successful and ``failed`` failed sweep
+    episodes of ``method``, from the most cluttered clutter point that has both, written to
+    ``out/films/``. Every episode is replayed from its task seed exactly as the sweep ran it;
+    a replay whose outcome differs from the cached one raises ``RuntimeError``.
+
+    Examples:
+        >>> import tempfile
+        >>> from occrl.eval.sweep import run_sweep, sweep_films
+        >>> out = run_sweep(["scripted"], tempfile.mkdtemp(), tasks=2, sweeps=("clutter",),
+        ...                 values={"clutter": [1.0]}, progress=False)
+        >>> [p.name for p in sweep_films(out, "scripted", solved=1, failed=0)]
+        ['scripted__clutter__1__seed10000000__solved.png']
+    """
+    import torch
+
+    from occrl.envs import make_env
+    from occrl.envs import world_constants as C
+    from occrl.eval.film import episode_frames, save_film_strip
+    from occrl.eval.methods import make_method
+    from occrl.eval.runner import task_scenes
+
+    out = Path(out)
+    points = sorted((p for p in _points(out) if p["method"] == method and p["sweep"] == "clutter"), key=lambda p: -p["value"])
+    for point in points:
+        wins = [e for e in point["episodes"] if e["success"]][:solved]
+        losses = [e for e in point["episodes"] if not e["success"]][:failed]
+        if len(wins) == solved and len(losses) == failed:
+            break
+    else:
+        raise ValueError(f"no clutter point of {method!r} in {out} has {solved} solved and {failed} failed episodes")
+    m = make_method(method, weights)
+    (out / "films").mkdir(exist_ok=True)
+    paths = []
+    for e in wins + losses:
+        seed = int(e["seed"])
+        env = make_env(batch_size=1, scenes=task_scenes(SCENE_STAGE, [seed], int(point["value"])), noise=0.0, seed=[seed],
+                       heatmap_target=False)
+        for p in m.primers:
+            env.append_transform(p.clone())
+        torch.manual_seed(seed)  # as run_episodes seeds a task
+        if hasattr(m.policy, "reseed_worlds"):
+            m.policy.reseed_worlds([seed])
+        elif hasattr(m.policy, "reseed"):
+            m.policy.reseed(seed)
+        decisions = getattr(m.policy, "decisions", None)
+        if decisions is not None:
+            decisions.clear()
+        from torchrl.envs.utils import set_exploration_type
+
+        with torch.no_grad(), set_exploration_type(m.exploration):
+            td = env.rollout(C.MAX_EPISODE_STEPS, m.policy, break_when_any_done=False)[0]
+        done = td.get(("next", "done")).squeeze(-1).numpy()
+        end = int(np.flatnonzero(done)[0]) if done.any() else td.shape[0] - 1
+        if bool(td.get(("next", "success"))[end]) != bool(e["success"]) or end + 1 != e["actions"]:
+            raise RuntimeError(f"replay of task {seed} ({method}, {int(point['value'])} objects) differs from the sweep's episode")
+        frames = episode_frames(td[: end + 1], decisions=decisions)
+        tag = "solved" if e["success"] else "failed"
+        name = f"{method}__clutter__{point['value']:g}__seed{seed}__{tag}.png"
+        paths.append(save_film_strip(frames, out / "films" / name))
+    return paths

@@ -57,6 +57,18 @@ RAY_WORKER_MEMORY = 2 * 1024**3  # bytes reserved per Ray collector worker
 _RUNTIME_SETTINGS = {"collector": {"multi", "ray"}}
 
 
+def _freeze_scale_outputs(net) -> None:
+    """Zero the gradient of the rows of the policy head's last layer that produce the standard
+    deviations (the head writes ``loc, scale = chunk(2)``), so the update moves only the means
+    (the shared trunk still moves both)."""
+    last = net.actor.module[0].module.net[-1]
+    half = last.out_features // 2
+    mask = torch.ones(last.out_features, 1)
+    mask[half:] = 0.0
+    last.weight.register_hook(lambda g: g * mask)
+    last.bias.register_hook(lambda g: g * mask.squeeze(-1))
+
+
 def _sha256(path: str | Path) -> str:
     import hashlib
 
@@ -158,8 +170,10 @@ class Trainer:
             gamma=config.gamma,
             heatmap_fraction=config.heatmap_fraction,
             bc_coeff=config.ppo_bc_coeff,
-            bc_min_scale=config.imitation_min_scale,
+            bc_min_scale=config.ppo_bc_min_scale,
         )
+        if config.freeze_policy_scale:
+            _freeze_scale_outputs(self.net)
         params = list(self.net.parameters())
         if config.optimizer == "rmsprop":
             self.optimizer = torch.optim.RMSprop(params, lr=config.lr)

@@ -53,3 +53,14 @@ def test_a_point_extended_by_more_seeds_equals_the_point_run_at_once(tmp_path):
     key = lambda p: [(e["seed"], e["success"], e["actions"]) for e in p["episodes"]]  # noqa: E731
     assert key(grown) == key(once)
     assert grown["tasks"] == 5 and grown["success_rate"] == once["success_rate"]
+
+
+def test_film_strips_replay_the_sweep_episodes_of_the_hybrid_planner(tmp_path):
+    from occrl.eval.sweep import sweep_films
+
+    out = run_sweep(["hybrid-2x2"], tmp_path, tasks=2, first_seed=300, sweeps=("clutter",), values={"clutter": [3.0]},
+                    progress=False)
+    point = json.loads((out / "points" / "hybrid-2x2__clutter__3.json").read_text())
+    solved = sum(e["success"] for e in point["episodes"])
+    paths = sweep_films(out, "hybrid-2x2", solved=solved, failed=2 - solved)  # raises if a replay differs
+    assert len(paths) == 2 and all(p.stat().st_size > 10_000 for p in paths)
