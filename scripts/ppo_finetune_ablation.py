@@ -20,12 +20,15 @@ from pathlib import Path
 
 import numpy as np
 
+BC = {"ppo_bc_coeff": 1.0, "ppo_bc_min_scale": 0.01}  # the expert term as first tried
 VARIANTS: dict[str, tuple[str, dict]] = {
-    "preset": ("cpu-finetune as shipped", {}),
-    "bn-refresh-lr0": ("batch-norm refresh on (400 frames), learning rate 0", {"batch_norm_frames": 400, "lr": 0.0, "ppo_bc_coeff": 0.5, "ppo_bc_min_scale": 0.1}),
-    "bc0.5-floor0.1": ("expert term 0.5 with the warm start's spread floor 0.1", {"ppo_bc_coeff": 0.5, "ppo_bc_min_scale": 0.1}),
-    "freeze-scale": ("no gradient to the spread outputs", {"freeze_policy_scale": True}),
-    "no-aux": ("critic 0.05, no heat-map loss (the trunk learns from PPO + expert term)", {"critic_coeff": 0.05, "heatmap_coeff": 0.0}),
+    "preset": ("cpu-finetune as shipped (no expert term)", {}),
+    "bn-refresh-lr0": ("batch-norm refresh on (400 frames), learning rate 0",
+                       {"batch_norm_frames": 400, "lr": 0.0, "ppo_bc_coeff": 0.5, "ppo_bc_min_scale": 0.1}),
+    "bc1-floor0.01": ("+ expert term: its negative log-likelihood on the batch, x1, spread floor 0.01", BC),
+    "bc0.5-floor0.1": ("+ expert term x0.5, spread floor 0.1 (the warm start's)", {"ppo_bc_coeff": 0.5, "ppo_bc_min_scale": 0.1}),
+    "bc1-freeze-scale": ("+ expert term x1, no gradient to the spread outputs", {**BC, "freeze_policy_scale": True}),
+    "bc1-no-aux": ("+ expert term x1, critic 0.05, no heat-map loss", {**BC, "critic_coeff": 0.05, "heatmap_coeff": 0.0}),
 }
 
 

@@ -116,16 +116,13 @@ TRAIN_PRESETS: dict[str, TrainConfig] = {
         heatmap_fraction=0.25,
         batch_norm_frames=400,
     ),
-    # PPO after the "cpu" warm start, started from its weights (``occrl train --init-weights``):
-    # the plain continuation (lr 3e-4, entropy bonus, no critic warm-up) collapsed within 15
-    # iterations (docs/decisions.md). Here: steps 30 times smaller (one Adam step at 3e-5 already
-    # moved the policy by an approximate KL of 0.11), no entropy bonus (the imitated policy explores
-    # with its own spread), 10 value-head-only iterations, the expert's likelihood as a
-    # regulariser whose spread floor (0.01) lies below the policy's (with the warm start's floor of
-    # 0.1, PPO's noise walked every spread up to 0.1: entropy -5.4 -> -3.6 and success 0.8 -> 0.2 in
-    # 35 iterations), early stop at an approximate KL of 0.03, batch-norm statistics frozen (refreshed
-    # on the learner's own frames they drifted and alone, with a learning rate of 0, took stage-1
-    # training success from ~0.78 to ~0.6 within 6 iterations), and the paper's promotion rule.
+    # PPO after the "cpu" warm start, started from its weights (``occrl train --init-weights occnet``):
+    # the plain continuation (lr 3e-4, entropy bonus, batch-norm refresh) collapsed within 15
+    # iterations. Here: steps 30 times smaller (one Adam step at 3e-5 already moved the policy by
+    # an approximate KL of 0.11), no entropy bonus (the imitated policy explores with its own
+    # spread), 10 value-head-only iterations, early stop at an approximate KL of 0.03, batch-norm
+    # statistics frozen, and the paper's promotion rule. No expert term: every variant with one
+    # degraded (scripts/ppo_finetune_ablation.py; docs/decisions.md).
     "cpu-finetune": TrainConfig(
         preset="cpu-finetune",
         optimizer="adam",
@@ -135,8 +132,6 @@ TRAIN_PRESETS: dict[str, TrainConfig] = {
         num_envs=32,
         entropy_coeff=0.0,
         critic_warmup_iters=10,
-        ppo_bc_coeff=1.0,
-        ppo_bc_min_scale=0.01,
         target_kl=0.02,
         heatmap_fraction=0.25,
         batch_norm_frames=0,

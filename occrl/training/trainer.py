@@ -76,9 +76,13 @@ def _sha256(path: str | Path) -> str:
 
 
 def _same_run_settings(saved: dict, current: dict) -> bool:
-    """Equal training settings, except a run collected by "multi" may resume on "ray" and back.
-    Settings added after a checkpoint was written take their defaults (the behaviour it ran with)."""
+    """Equal training settings, except a run collected by "multi" may resume on "ray" and back, and
+    the expert term's spread floor does not count without an expert term. Settings added after a
+    checkpoint was written take their defaults (the behaviour it ran with)."""
     saved = TrainConfig.from_dict(saved).to_dict()
+    for cfg in (saved, current):  # a setting without effect does not tell runs apart
+        if cfg.get("ppo_bc_coeff", 0.0) == 0.0:
+            cfg.pop("ppo_bc_min_scale", None)
     for key, interchangeable in _RUNTIME_SETTINGS.items():
         if saved.get(key) in interchangeable and current.get(key) in interchangeable:
             saved, current = {**saved, key: None}, {**current, key: None}

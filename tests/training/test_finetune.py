@@ -100,3 +100,12 @@ def test_loss_bc_needs_expert_labels():
     loss = PPOHeatmapLoss(net, bc_coeff=1.0)
     with pytest.raises(KeyError, match="expert_action"):
         loss.forward(TensorDict({"pixels": torch.zeros(1, 2, 3, 64, 64)}, batch_size=[1, 2]))
+
+
+def test_the_expert_terms_floor_without_an_expert_term_does_not_split_runs():
+    from occrl.training.trainer import _same_run_settings
+
+    base = get_train_config("cpu-finetune")
+    assert _same_run_settings({**base.to_dict(), "ppo_bc_min_scale": 0.01}, base.to_dict())
+    with_bc = get_train_config("cpu-finetune", ppo_bc_coeff=1.0)
+    assert not _same_run_settings({**with_bc.to_dict(), "ppo_bc_min_scale": 0.01}, with_bc.to_dict())
