@@ -15,7 +15,7 @@ import argparse
 import json
 from pathlib import Path
 
-GRID_METHODS = ["hybrid-4x4", "hybrid-2x2", "hybrid-6x6", "hybrid-lim-4x4", "stochastic-gen", "stochastic", "greedy"]
+GRID_METHODS = ["hybrid-4x4", "hybrid-2x2", "hybrid-6x6", "hybrid-lim-4x4", "stochastic-gen", "stochastic", "greedy", "scripted"]
 GRID_COLUMNS = [(1, 0.0), (2, 0.0), (3, 0.0), (1, 0.15), (2, 0.15), (3, 0.15)]
 
 

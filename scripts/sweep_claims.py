@@ -1,7 +1,8 @@
 """Check the papers' simulation claims against a sweep's results (the README's Results comparison).
 
 Usage:
-    python scripts/sweep_claims.py results/sweep/results.json
+    python scripts/sweep_claims.py results/sweep/results.json            # the claims
+    python scripts/sweep_claims.py results/sweep/results.json --tables   # plus success per method and point
 
 Reads the rows written by ``occrl eval --sweep`` (``summarize_sweep``) and prints, per claim of
 the papers (Sec. VI-C), the figures that test it and whether this sweep agrees. "Clearly" means
@@ -126,9 +127,27 @@ def claims(table) -> list[tuple[str, str, str]]:
     return out
 
 
+METHOD_ORDER = ["hybrid-6x6", "hybrid-4x4", "hybrid-2x2", "hybrid-lim-4x4", "stochastic-gen", "stochastic", "greedy", "hierarchical"]
+
+
+def success_tables(table) -> None:
+    for sweep, label in (("clutter", "objects"), ("noise", "noise")):
+        values = sorted({v for (sw, _), pts in table.items() if sw == sweep for v in pts})
+        if not values:
+            continue
+        methods = [m for m in METHOD_ORDER if (sweep, m) in table] + sorted(m for (sw, m) in table if sw == sweep and m not in METHOD_ORDER)
+        print(f"\nsuccess (%) against {label}:\n")
+        print(f"| method | " + " | ".join(f"{v:g}" for v in values) + " |")
+        print("| --- | " + " | ".join("---" for _ in values) + " |")
+        for m in methods:
+            pts = table[(sweep, m)]
+            print(f"| {m} | " + " | ".join(f"{100 * pts[v]['success_rate']:.0f}" if v in pts else "" for v in values) + " |")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("results", help="results.json of a sweep folder")
+    parser.add_argument("--tables", action="store_true", help="also print success per method and point")
     args = parser.parse_args()
     table = load(args.results)
     tasks = sorted({r["tasks"] for pts in table.values() for r in pts.values()})
@@ -139,6 +158,8 @@ def main() -> None:
     print("| --- | --- | --- |")
     for claim, figures, verdict in claims(table):
         print(f"| {claim} | {figures} | {verdict} |")
+    if args.tables:
+        success_tables(table)
 
 
 if __name__ == "__main__":

@@ -14,7 +14,8 @@ def _row(method, sweep, value, rate, half=0.05):
 def _claims(tmp_path, rows):
     path = tmp_path / "results.json"
     path.write_text(json.dumps(rows))
-    out = subprocess.run([sys.executable, str(SCRIPT), str(path)], capture_output=True, text=True, check=True).stdout
+    out = subprocess.run([sys.executable, str(SCRIPT), str(path), "--tables"], capture_output=True, text=True, check=True).stdout
+    assert "success (%) against objects" in out and "| hybrid-4x4 | " in out
     return {line.split(" | ")[0].lstrip("| "): line.split(" | ")[-1].rstrip(" |") for line in out.splitlines() if line.startswith("| ")}
 
 
