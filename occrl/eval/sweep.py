@@ -237,6 +237,7 @@ def sweep_films(out: str | Path, method: str, solved: int = 3, failed: int = 1, 
         ['scripted__clutter__1__seed10000000__solved.png']
     """
     import torch
+    from torchrl.envs.utils import set_exploration_type
 
     from occrl.envs import make_env
     from occrl.envs import world_constants as C
@@ -270,8 +271,6 @@ def sweep_films(out: str | Path, method: str, solved: int = 3, failed: int = 1, 
         decisions = getattr(m.policy, "decisions", None)
         if decisions is not None:
             decisions.clear()
-        from torchrl.envs.utils import set_exploration_type
-
         with torch.no_grad(), set_exploration_type(m.exploration):
             td = env.rollout(C.MAX_EPISODE_STEPS, m.policy, break_when_any_done=False)[0]
         done = td.get(("next", "done")).squeeze(-1).numpy()
