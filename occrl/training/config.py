@@ -76,6 +76,10 @@ class TrainConfig:
     promotion: str = "learner"  # "learner" | "hybrid"
     promotion_eval_every: int = 50
     promotion_eval_tasks: int = 30
+    # after a promotion, this many of the collector workers keep collecting tasks of the previous
+    # stage (the others the new one), so what was learnt there keeps its training signal (beyond
+    # the paper; needs collector "multi" or "ray" and fewer than `workers`)
+    replay_stage_workers: int = 0
     noise: float = 0.0
 
     @property

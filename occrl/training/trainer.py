@@ -150,6 +150,9 @@ class Trainer:
                  max_worker_restarts: int = 2, init_weights: str | Path | None = None) -> None:
         if config.promotion not in ("learner", "hybrid"):
             raise ValueError(f"promotion must be 'learner' or 'hybrid', got {config.promotion!r}")
+        if config.replay_stage_workers and (config.collector == "single" or config.replay_stage_workers >= config.workers):
+            raise ValueError(f"replay_stage_workers={config.replay_stage_workers} needs collector 'multi' or 'ray' and "
+                             f"fewer than workers={config.workers} (got collector {config.collector!r})")
         if config.promotion == "hybrid" and not config.heatmap:
             raise ValueError("promotion='hybrid' needs the heat-map head (the hybrid planner uses it); use 'learner'")
         self.config = config
@@ -278,7 +281,8 @@ class Trainer:
             if per * c.workers != c.num_envs:
                 raise ValueError(f"num_envs ({c.num_envs}) must be a multiple of workers ({c.workers})")
             # worker k steps envs seeded from seed + k in both: the same batches either way (tested)
-            factories = [partial(_env_factory, stage, c.noise, per, self.seed + k, self.net) for k in range(c.workers)]
+            stages = self._worker_stages(stage)
+            factories = [partial(_env_factory, stages[k], c.noise, per, self.seed + k, self.net) for k in range(c.workers)]
             if c.collector == "multi":
                 self._collector = MultiSyncCollector(
                     factories,
@@ -312,6 +316,28 @@ class Trainer:
         self._collector_stage = stage
         self._iterator = iter(self._collector)
         return self._collector
+
+    def _per_stage_success(self, data: TensorDictBase) -> dict:
+        """``success_rate_stageS`` per stage when the workers collect different stages (the rows
+        of a batch are the workers' env batches in order)."""
+        stages = self._worker_stages(self._collector_stage) if self.config.collector != "single" else [self._collector_stage]
+        if len(set(stages)) < 2:
+            return {}
+        per = data.shape[0] // len(stages)
+        out = {}
+        for st in sorted(set(stages)):
+            rows = torch.cat([torch.arange(k * per, (k + 1) * per) for k, s in enumerate(stages) if s == st])
+            succ = episode_stats(data[rows])["success"]
+            if succ:
+                out[f"success_rate_stage{st}"] = float(np.mean(succ))
+        return out
+
+    def _worker_stages(self, stage: int) -> list[int]:
+        """Curriculum stage of each collector worker: the last ``replay_stage_workers`` workers
+        stay one stage back after a promotion (see :class:`TrainConfig`)."""
+        c = self.config
+        replay = c.replay_stage_workers if stage > 1 else 0
+        return [stage] * (c.workers - replay) + [stage - 1] * replay
 
     def close(self) -> None:
         if self._collector is not None:
@@ -523,6 +549,7 @@ class Trainer:
                 }
                 if hybrid_rate is not None:
                     summary["hybrid_success_rate"] = hybrid_rate
+                summary.update(self._per_stage_success(data))
                 self._log(summary)
                 if promoted:
                     logger.info("promoted to stage %d at iteration %d", self.curriculum.stage, self.iteration)

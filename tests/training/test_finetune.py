@@ -109,3 +109,13 @@ def test_the_expert_terms_floor_without_an_expert_term_does_not_split_runs():
     assert _same_run_settings({**base.to_dict(), "ppo_bc_min_scale": 0.01}, base.to_dict())
     with_bc = get_train_config("cpu-finetune", ppo_bc_coeff=1.0)
     assert not _same_run_settings({**with_bc.to_dict(), "ppo_bc_min_scale": 0.01}, with_bc.to_dict())
+
+
+def test_replay_workers_keep_the_previous_stage(tmp_path):
+    cfg = get_train_config("tiny", collector="multi", workers=2, num_envs=4, replay_stage_workers=1, start_stage=2)
+    tr = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False)
+    assert tr._worker_stages(2) == [2, 1] and tr._worker_stages(3) == [3, 2] and tr._worker_stages(1) == [1, 1]
+    with pytest.raises(ValueError, match="replay_stage_workers=1 needs collector 'multi' or 'ray'"):
+        Trainer(get_train_config("tiny", replay_stage_workers=1), tmp_path / "single", seed=0, progress=False)
+    with pytest.raises(ValueError, match="fewer than workers=2"):
+        Trainer(get_train_config("tiny", collector="multi", replay_stage_workers=2), tmp_path / "all", seed=0, progress=False)
