@@ -110,6 +110,8 @@ def _train(args: argparse.Namespace) -> int:
         overrides["imitation_iters"] = args.imitation_iters
     if args.no_heatmap:
         overrides["heatmap"] = False
+    if args.promotion:
+        overrides["promotion"] = args.promotion
     config = get_train_config(args.preset, **overrides)
     init_weights = args.init_weights
     if init_weights is not None and not Path(init_weights).exists():
@@ -320,6 +322,8 @@ def main(argv: list[str] | None = None) -> int:
     t.add_argument("--num-envs", type=int, default=None)
     t.add_argument("--imitation-iters", type=int, default=None, help="DAgger warm-start iterations (0 = PPO from scratch)")
     t.add_argument("--no-heatmap", action="store_true", help="train the net without heat-map head (baselines)")
+    t.add_argument("--promotion", choices=["learner", "hybrid"], default=None,
+                   help="curriculum rule: the paper's hybrid 4x4 validation (needs the heat-map head) or the learner's own success")
     t.add_argument("--init-weights", default=None,
                    help="start a new run from these weights: a weights file (e.g. a run's weights_warmstart.pt) "
                         "or a shipped name (occnet, occnet-noheatmap); used by the cpu-finetune preset")

@@ -598,6 +598,8 @@ class Trainer:
         elif (self.run_dir / DAGGER_DATA).exists():
             (self.run_dir / DAGGER_DATA).unlink()  # the warm start is over
         save_weights(self.run_dir / WEIGHTS, self.net, {"train_preset": self.config.preset, **self.state()})
+        if not (self.run_dir / METRICS).exists():  # no iteration yet
+            return
         try:
             from occrl.training.plots import plot_learning_curves
 
