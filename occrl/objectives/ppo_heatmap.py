@@ -75,8 +75,9 @@ class PPOHeatmapLoss(ClipPPOLoss):
         loss_critic_type: ``"smooth_l1"`` (default; returns reach -100, and an L2 value loss
             would dominate the clipped gradient) or ``"l2"`` (the paper's squared error).
         bc_coeff: weight of an extra ``loss_bc`` = negative log-likelihood of ``"expert_action"``
-            (the privileged scripted retriever's action on the same frames), which keeps PPO
-            fine-tuning of a warm-started net near the expert (0 = the paper's loss; beyond the paper).
+            (the privileged scripted retriever's action on the same frames; 0 = the paper's loss).
+            Tried as a regulariser for PPO fine-tuning of a warm-started net, it degraded the
+            policy in every form tried (docs/decisions.md); kept for such experiments.
         bc_min_scale: standard-deviation floor of that likelihood (as in :func:`imitation_nll`).
 
     The input tensordict has batch dims [B, T] (B sequences of T steps) and carries

@@ -48,7 +48,7 @@ WEIGHTS = "weights.pt"
 WARM_START_WEIGHTS = "weights_warmstart.pt"  # the network at the end of the DAgger warm start, before PPO
 VALIDATION_SEED_BASE = 20_000_000  # hybrid-promotion tasks (held-out evaluation starts at 10_000_000)
 METRICS = "metrics.jsonl"
-PPO_DIAGNOSTICS = ("kl_approx", "clip_fraction", "entropy")  # (averaged over the minibatches seen)  # ClipPPOLoss outputs written to the metrics
+PPO_DIAGNOSTICS = ("kl_approx", "clip_fraction", "entropy")  # ClipPPOLoss outputs logged (mean over the minibatches seen)
 
 
 RAY_WORKER_MEMORY = 2 * 1024**3  # bytes reserved per Ray collector worker
