@@ -75,7 +75,7 @@ def claims(table) -> list[tuple[str, str, str]]:
     elif clearly_lower == 0:
         verdict = "agrees within the intervals (no baseline clearly higher anywhere)"
     else:
-        verdict = f"disagrees ({clearly_lower} pairs clearly lower)"
+        verdict = f"disagrees ({clearly_lower} pair{'s' if clearly_lower != 1 else ''} clearly lower)"
     out.append(("hybrid (4x4) beats every baseline",
                 f"{wins} of {total} (point, baseline) pairs higher, {ties} equal, {losses} lower; {clear} clearly higher",
                 verdict if total else "not run"))
