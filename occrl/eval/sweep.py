@@ -113,6 +113,9 @@ def run_sweep(
                 for method in methods:
                     path = _point_path(out, method, sweep, value)
                     done = _cached_episodes(path)
+                    if done and min(done) != first_seed:
+                        raise ValueError(f"{path} holds task seeds from {min(done)}, not from {first_seed}: "
+                                         f"use another --out folder for other task seeds")
                     missing = [s for s in seeds if s not in done]
                     if not missing:
                         continue

@@ -1,5 +1,7 @@
 import json
 
+import pytest
+
 from occrl.eval.runner import run_tasks, summarize, wilson_interval
 from occrl.eval.sweep import noise_sweep_objects, run_sweep
 
@@ -17,6 +19,8 @@ def test_tiny_sweep_writes_points_table_and_figure_and_resumes(tmp_path):
     stamps = {p: p.stat().st_mtime_ns for p in points}
     run_sweep(["scripted"], tmp_path, tasks=3, first_seed=123, values=values, batch=3, progress=False)
     assert all(p.stat().st_mtime_ns == stamps[p] for p in points)  # cached points are not recomputed
+    with pytest.raises(ValueError, match="holds task seeds from 123, not from 500"):
+        run_sweep(["scripted"], tmp_path, tasks=3, first_seed=500, values=values, batch=3, progress=False)
 
 
 def test_noise_sweep_object_counts_are_fixed_by_seed_and_cover_1_to_10():
