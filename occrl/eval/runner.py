@@ -101,6 +101,49 @@ def wilson_interval(successes: int, n: int, z: float = 1.96) -> tuple[float, flo
     return (max(0.0, centre - half), min(1.0, centre + half))
 
 
+def seeded_task_env(policy: Callable, scenes: Sequence[Scene], seeds: Sequence[int], noise: float = 0.0,
+                    primers: Sequence = (), heatmap_target: bool = False, world: str = "pymunk"):
+    """The env of a batch of tasks, with the env and the decision maker seeded by the task seeds:
+    what :func:`run_episodes` runs, and what a replay of one of its episodes must build.
+
+    Each world's execution noise follows its own task seed; the decision maker's randomness too
+    where it can (``reseed_worlds``, e.g. :class:`~occrl.baselines.NetPolicy`), else the batch's
+    first seed (``reseed``, e.g. the planners, run one task per batch). Either way results do not
+    depend on how tasks are spread over processes.
+
+    Examples:
+        >>> from occrl.baselines import ScriptedRetriever
+        >>> from occrl.eval.runner import seeded_task_env, task_scenes
+        >>> env = seeded_task_env(ScriptedRetriever(), task_scenes(1, [3, 4]), [3, 4])
+        >>> env.batch_size
+        torch.Size([2])
+    """
+    env = make_env(batch_size=len(scenes), scenes=list(scenes), noise=noise, seed=[int(s) for s in seeds],
+                   heatmap_target=heatmap_target, backend=world)
+    for p in primers:
+        env.append_transform(p.clone() if hasattr(p, "clone") else p)
+    torch.manual_seed(int(seeds[0]))
+    if hasattr(policy, "reseed_worlds"):
+        policy.reseed_worlds([int(s) for s in seeds])
+    elif hasattr(policy, "reseed"):
+        policy.reseed(int(seeds[0]))
+    return env
+
+
+def episode_end(done: np.ndarray) -> int:
+    """Index of the step that ended the episode in one world's ``done`` flags (the last step
+    when it did not end).
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.eval.runner import episode_end
+        >>> episode_end(np.array([False, False, True, False])), episode_end(np.zeros(5, dtype=bool))
+        (2, 4)
+    """
+    ends = np.flatnonzero(done)
+    return int(ends[0]) if len(ends) else len(done) - 1
+
+
 def run_episodes(
     policy: Callable,
     scenes: Sequence[Scene],
@@ -129,19 +172,7 @@ def run_episodes(
     for start in range(0, len(scenes), batch_size):
         chunk = list(scenes[start : start + batch_size])
         chunk_seeds = list(seeds[start : start + batch_size])
-        # each world's execution noise follows its own task seed
-        env = make_env(batch_size=len(chunk), scenes=chunk, noise=noise, seed=[int(s) for s in chunk_seeds], heatmap_target=heatmap_target,
-                       backend=world)
-        for p in primers:
-            env.append_transform(p.clone() if hasattr(p, "clone") else p)
-        # randomness of the decision maker follows the task seeds: per world where the policy can
-        # (NetPolicy), else the chunk's first seed; either way results do not depend on how
-        # tasks are spread over processes
-        torch.manual_seed(int(chunk_seeds[0]))
-        if hasattr(policy, "reseed_worlds"):
-            policy.reseed_worlds([int(s) for s in chunk_seeds])
-        elif hasattr(policy, "reseed"):
-            policy.reseed(int(chunk_seeds[0]))
+        env = seeded_task_env(policy, chunk, chunk_seeds, noise, primers, heatmap_target, world)
         t = time.time()
         with torch.no_grad(), set_exploration_type(exploration):
             td = env.rollout(C.MAX_EPISODE_STEPS, policy, break_when_any_done=False)
@@ -150,8 +181,7 @@ def run_episodes(
         success = td.get(("next", "success")).squeeze(-1).numpy()
         dropped = td.get(("next", "dropped")).squeeze(-1).numpy()
         for b, scene in enumerate(chunk):
-            ends = np.flatnonzero(done[b])
-            end = int(ends[0]) if len(ends) else done.shape[1] - 1
+            end = episode_end(done[b])
             ok = bool(success[b, end]) and end + 1 < C.MAX_EPISODE_STEPS + 1 and per_task < TIME_LIMIT_S
             results.append(EpisodeResult(int(chunk_seeds[b]), len(scene), ok, bool(dropped[b, end]), end + 1, per_task))
     return results

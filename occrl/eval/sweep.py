@@ -242,11 +242,10 @@ def sweep_films(out: str | Path, method: str, solved: int = 3, failed: int = 1, 
     import torch
     from torchrl.envs.utils import set_exploration_type
 
-    from occrl.envs import make_env
     from occrl.envs import world_constants as C
     from occrl.eval.film import episode_frames, save_film_strip
     from occrl.eval.methods import make_method
-    from occrl.eval.runner import task_scenes
+    from occrl.eval.runner import episode_end, seeded_task_env, task_scenes
 
     out = Path(out)
     points = sorted((p for p in _points(out) if p["method"] == method and p["sweep"] == "clutter"), key=lambda p: -p["value"])
@@ -262,22 +261,13 @@ def sweep_films(out: str | Path, method: str, solved: int = 3, failed: int = 1, 
     paths = []
     for e in wins + losses:
         seed = int(e["seed"])
-        env = make_env(batch_size=1, scenes=task_scenes(SCENE_STAGE, [seed], int(point["value"])), noise=0.0, seed=[seed],
-                       heatmap_target=False)
-        for p in m.primers:
-            env.append_transform(p.clone())
-        torch.manual_seed(seed)  # as run_episodes seeds a task
-        if hasattr(m.policy, "reseed_worlds"):
-            m.policy.reseed_worlds([seed])
-        elif hasattr(m.policy, "reseed"):
-            m.policy.reseed(seed)
+        env = seeded_task_env(m.policy, task_scenes(SCENE_STAGE, [seed], int(point["value"])), [seed], 0.0, m.primers)
         decisions = getattr(m.policy, "decisions", None)
         if decisions is not None:
             decisions.clear()
         with torch.no_grad(), set_exploration_type(m.exploration):
             td = env.rollout(C.MAX_EPISODE_STEPS, m.policy, break_when_any_done=False)[0]
-        done = td.get(("next", "done")).squeeze(-1).numpy()
-        end = int(np.flatnonzero(done)[0]) if done.any() else td.shape[0] - 1
+        end = episode_end(td.get(("next", "done")).squeeze(-1).numpy())
         if bool(td.get(("next", "success"))[end]) != bool(e["success"]) or end + 1 != e["actions"]:
             raise RuntimeError(f"replay of task {seed} ({method}, {int(point['value'])} objects) differs from the sweep's episode")
         frames = episode_frames(td[: end + 1], decisions=decisions)

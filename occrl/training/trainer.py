@@ -458,8 +458,12 @@ class Trainer:
         td = mb.copy()
         with torch.no_grad(), set_recurrent_mode(True):
             td = self.net.trunk(td)
+        return {"loss_critic": self._value_loss(td)}
+
+    def _value_loss(self, td: TensorDictBase) -> torch.Tensor:
+        """c1 x smooth-L1 value loss of the value head on ``td`` (which holds ``"belief"``)."""
         value = self.net.critic(td).get("state_value")
-        return {"loss_critic": self.config.critic_coeff * torch.nn.functional.smooth_l1_loss(value, td.get("value_target"))}
+        return self.config.critic_coeff * torch.nn.functional.smooth_l1_loss(value, td.get("value_target"))
 
     def _imitation_terms(self, mb: TensorDictBase) -> dict:
         c = self.config
@@ -467,8 +471,7 @@ class Trainer:
         with set_recurrent_mode(True):
             td = self.net.trunk(td)
         terms = {"loss_imitation": imitation_nll(self.net, td, c.imitation_min_scale)}
-        value = self.net.critic(td).get("state_value")
-        terms["loss_critic"] = c.critic_coeff * torch.nn.functional.smooth_l1_loss(value, td.get("value_target"))
+        terms["loss_critic"] = self._value_loss(td)
         if self.net.heatmap_head is not None and c.heatmap_coeff > 0:
             terms["loss_heatmap"] = c.heatmap_coeff * heatmap_loss(self.net.heatmap_head, td, c.heatmap_fraction)
         return terms
