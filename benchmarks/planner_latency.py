@@ -82,6 +82,41 @@ def main() -> None:
         ts += time.perf_counter() - t
         same += bool(torch.allclose(act_a, act_b, atol=1e-5))
     print(f"4x4 batched {1e3 * tb / len(obs):.1f} ms vs sequential {1e3 * ts / len(obs):.1f} ms per decision: {ts / tb:.1f}x faster; same action in {same}/{len(obs)} decisions")
+    breakdown(net, obs)
+
+
+# where a decision's time goes (cProfile cumulative time of these functions)
+PARTS = {
+    "network": ("rhp.py", "step"),
+    "rendering": ("rhp.py", "render_pixels"),
+    "physics": ("world.py", "step"),
+    "world building": ("recreate.py", "make_world"),
+}
+
+
+def breakdown(net, obs) -> None:
+    """Share of network calls, rendering (visibility + raster), pymunk stepping and world building
+    in both implementations, and the speed-up the batched RHP could reach if its network calls
+    took no time at all (the per-world parts are the same work in both)."""
+    import cProfile
+    import pstats
+
+    parts = {}
+    for batched in (True, False):
+        prof = cProfile.Profile()
+        prof.enable()
+        for k, td in enumerate(obs):
+            HybridPlanner(net, m=4, h=4, seed=k, batched=batched)(td.clone())
+        prof.disable()
+        stats = pstats.Stats(prof).stats
+        total = sum(v[3] for key, v in stats.items() if key[0].endswith("hybrid.py") and key[2] == "forward")
+        got = {name: sum(v[3] for key, v in stats.items() if key[0].endswith(f) and key[2] == fn) for name, (f, fn) in PARTS.items()}
+        got["other"] = total - sum(got.values())
+        parts[batched] = (total, got)
+        shares = ", ".join(f"{name} {100 * v / total:.0f} %" for name, v in got.items())
+        print(f"4x4 {'batched' if batched else 'sequential'} (profiled, {1e3 * total / len(obs):.1f} ms per decision): {shares}")
+    (tb, pb), (ts, _) = parts[True], parts[False]
+    print(f"batched with free network calls: at most {ts / (tb - pb['network']):.1f}x faster than the sequential reference")
 
 
 if __name__ == "__main__":

@@ -6,6 +6,9 @@ Usage:
 Measures the paper network with the `cpu` training preset settings (PPO update, 2 epochs) for a
 single-process Collector, a 2-worker MultiSyncCollector and a 2-worker RayCollector on a local Ray
 runtime (needs ``pip install "occrl[ray]"``). The first iteration (worker start-up) is not counted.
+Also prints the update's time per frame by part (advantages, PPO epochs, batch-norm refresh) and
+the throughput bound it sets: the update runs on every core while collection waits, so no
+collector can take the end-to-end rate above 1 / (update time per frame).
 """
 
 from __future__ import annotations
@@ -16,12 +19,16 @@ import time
 
 import torch
 
+from occrl.objectives import compute_advantages
 from occrl.training import Trainer, get_train_config
 
 
-def measure(collector: str, envs: int, iterations: int) -> tuple[float, float]:
+def measure(collector: str, envs: int, iterations: int) -> tuple[float, float, dict]:
+    """Frames/s of collection alone and of collection + update, and seconds per frame of each
+    part of the update (batch-norm refresh, advantages, the PPO epochs)."""
     cfg = get_train_config("cpu", collector=collector, num_envs=envs, imitation_iters=0)
     trainer = Trainer(cfg, tempfile.mkdtemp(), seed=0, progress=False, tensorboard=False, checkpoint_every_s=1e9)
+    parts = {"advantages": 0.0, "ppo_epochs": 0.0, "batch_norm": 0.0}
     try:
         trainer._collect()  # start-up
         collect_s = total_s = 0.0
@@ -30,16 +37,19 @@ def measure(collector: str, envs: int, iterations: int) -> tuple[float, float]:
             t0 = time.time()
             data = trainer._collect()
             t1 = time.time()
-            trainer._refresh_batch_norm(data)
-            from occrl.objectives import compute_advantages
-
             compute_advantages(trainer.net, data)
-            trainer._update(data, "ppo")
             t2 = time.time()
+            trainer._update(data, "ppo")
+            t3 = time.time()
+            trainer._refresh_batch_norm(data)
+            t4 = time.time()
+            parts["advantages"] += t2 - t1
+            parts["ppo_epochs"] += t3 - t2
+            parts["batch_norm"] += t4 - t3
             collect_s += t1 - t0
-            total_s += t2 - t0
+            total_s += t4 - t0
             frames += data.numel()
-        return frames / collect_s, frames / total_s
+        return frames / collect_s, frames / total_s, {k: v / frames for k, v in parts.items()}
     finally:
         trainer.close()
 
@@ -52,8 +62,14 @@ def main() -> None:
     args = parser.parse_args()
     print(f"paper network, cpu preset PPO update, {args.envs} envs x 50 steps per batch, torch threads {torch.get_num_threads()}")
     for collector in args.collectors.split(","):
-        c, t = measure(collector, args.envs, args.iterations)
+        c, t, parts = measure(collector, args.envs, args.iterations)
         print(f"{collector:>6} collector: collection {c:6.0f} frames/s, collection + update {t:6.0f} frames/s")
+        update = sum(parts.values())
+        detail = ", ".join(f"{k} {v * 1e3:.2f}" for k, v in parts.items())
+        # the update uses every core while the collector workers wait (synchronous collection), so
+        # even a collection that took no time at all could not exceed 1 / (update time per frame)
+        print(f"{'':>6}   update per frame {update * 1e3:.2f} ms ({detail}); bound with free collection "
+              f"{1 / update:6.0f} frames/s")
 
 
 if __name__ == "__main__":

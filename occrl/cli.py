@@ -112,6 +112,8 @@ def _train(args: argparse.Namespace) -> int:
         overrides["heatmap"] = False
     if args.promotion:
         overrides["promotion"] = args.promotion
+    if args.start_stage is not None:
+        overrides["start_stage"] = args.start_stage
     config = get_train_config(args.preset, **overrides)
     init_weights = args.init_weights
     if init_weights is not None and not Path(init_weights).exists():
@@ -308,7 +310,7 @@ def main(argv: list[str] | None = None) -> int:
     d.set_defaults(func=_demo)
 
     t = sub.add_parser("train", help="train OccNet (curriculum PPO + heat-map loss); resumes from RUN_DIR")
-    t.add_argument("--preset", default="paper", help="training preset: paper, cpu, cpu-finetune, tiny")
+    t.add_argument("--preset", default="paper", help="training preset: paper, cpu, cpu-finetune, cpu-curriculum, tiny")
     t.add_argument("--run-dir", required=True, help="run folder (checkpoint, logs, curves); keep it outside the source tree")
     t.add_argument("--seed", type=int, default=0)
     t.add_argument("--iterations", type=int, default=None, help="stop after this many iterations in total")
@@ -324,6 +326,8 @@ def main(argv: list[str] | None = None) -> int:
     t.add_argument("--no-heatmap", action="store_true", help="train the net without heat-map head (baselines)")
     t.add_argument("--promotion", choices=["learner", "hybrid"], default=None,
                    help="curriculum rule: the paper's hybrid 4x4 validation (needs the heat-map head) or the learner's own success")
+    t.add_argument("--start-stage", type=int, choices=[1, 2, 3], default=None,
+                   help="curriculum stage of a new run (e.g. 2 when continuing a net that passed stage 1)")
     t.add_argument("--init-weights", default=None,
                    help="start a new run from these weights: a weights file (e.g. a run's weights_warmstart.pt) "
                         "or a shipped name (occnet, occnet-noheatmap); used by the cpu-finetune preset")

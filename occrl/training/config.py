@@ -67,8 +67,8 @@ class TrainConfig:
     freeze_policy_scale: bool = False  # no gradient reaches the policy head's standard-deviation outputs
     target_kl: float = 0.0  # > 0: stop an iteration's PPO epochs once a minibatch's approximate KL exceeds 1.5 x this
     # curriculum. promotion="hybrid" is the paper's rule: hybrid 4x4 success > promote_threshold,
-    # measured every promotion_eval_every PPO iterations on promotion_eval_tasks fixed validation
-    # tasks of the current stage. promotion="learner" is a cheap proxy: the learner's own success
+    # measured every promotion_eval_every iterations (imitation or PPO; not during the critic
+    # warm-up) on promotion_eval_tasks fixed validation tasks of the current stage. promotion="learner" is a cheap proxy: the learner's own success
     # over its last promote_window training episodes.
     start_stage: int = 1
     promote_threshold: float = 0.8
@@ -140,6 +140,30 @@ TRAIN_PRESETS: dict[str, TrainConfig] = {
         heatmap_fraction=0.25,
         batch_norm_frames=0,
         promotion="hybrid",
+    ),
+    # The curriculum continued by DAgger from the "cpu" warm start (``occrl train --preset
+    # cpu-curriculum --init-weights occnet --start-stage 2``), beyond the paper: PPO from the warm
+    # start loses the grasp on stage 2 (docs/decisions.md), so the network keeps imitating the
+    # privileged scripted retriever on the states it visits (the expert acts on 30 % of the steps),
+    # on the paper's promotion rule (hybrid 4x4 > 80 % on the validation tasks, every 25
+    # iterations); one of the two collector workers keeps the previous stage.
+    "cpu-curriculum": TrainConfig(
+        preset="cpu-curriculum",
+        optimizer="adam",
+        lr=1e-4,
+        epochs=2,
+        collector="multi",
+        num_envs=32,
+        imitation_iters=100_000,
+        imitation_beta_iters=0,
+        imitation_beta_min=0.3,
+        imitation_buffer_iters=16,
+        imitation_updates=16,
+        heatmap_fraction=0.25,
+        batch_norm_frames=400,
+        promotion="hybrid",
+        promotion_eval_every=25,
+        replay_stage_workers=1,
     ),
     # A seconds-long configuration for tests and smoke runs.
     "tiny": TrainConfig(preset="tiny", num_envs=4, steps_per_env=8, epochs=1, minibatch_envs=2, promote_window=8, imitation_updates=3),

@@ -527,7 +527,7 @@ class Trainer:
                 self.frames += data.numel()
                 dt = time.time() - t0
                 hybrid_rate = None
-                if c.promotion == "hybrid" and phase == "ppo" and self.iteration % c.promotion_eval_every == 0:
+                if c.promotion == "hybrid" and phase in ("imitation", "ppo") and self.iteration % c.promotion_eval_every == 0:
                     hybrid_rate = self._hybrid_success()
                     if hybrid_rate > c.promote_threshold:
                         promoted = self.curriculum.promote()

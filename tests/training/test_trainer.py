@@ -122,6 +122,15 @@ def test_hybrid_promotion_rule(tmp_path):
     c = Curriculum(stage=1, threshold=0.5, window=2)
     assert not c.record([True, True], promote=False) and c.stage == 1 and c.success_rate == 1.0
     assert c.promote() and c.stage == 2 and c.success_rate == 0.0
+    # during a DAgger phase too (the cpu-curriculum preset), from the start stage given
+    dagger = get_train_config("tiny", promotion="hybrid", promotion_eval_every=2, promotion_eval_tasks=2, promote_threshold=-1.0,
+                              imitation_iters=10, imitation_beta_iters=0, imitation_beta_min=0.3, start_stage=2)
+    tr = Trainer(dagger, tmp_path / "e", seed=0, progress=False, tensorboard=False)
+    tr.train(iterations=2)
+    tr.close()
+    rows = [json.loads(l) for l in (tmp_path / "e" / "metrics.jsonl").read_text().splitlines()]
+    assert [(r["phase"], r["stage"], r["beta"]) for r in rows] == [("imitation", 2, 0.3), ("imitation", 3, 0.3)]
+    assert "hybrid_success_rate" in rows[1]
     with pytest.raises(ValueError, match="needs the heat-map head"):
         Trainer(get_train_config("tiny", promotion="hybrid", heatmap=False), tmp_path / "c", seed=0, progress=False)
     with pytest.raises(ValueError, match="promotion must be"):
