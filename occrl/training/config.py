@@ -54,6 +54,10 @@ class TrainConfig:
     imitation_beta_iters: int = 10  # expert acts with probability decaying 1 -> beta_min over these
     imitation_beta_min: float = 0.0  # the expert keeps acting this often during the warm start
     imitation_min_scale: float = 0.1
+    # who labels the learner's frames: "scripted" (the privileged scripted retriever) or "hybrid"
+    # (the hybrid 4x4 planner on the current network, perception only; the learner then always
+    # acts, beta = 0 — expert iteration, beyond the paper; ~40 ms per label on one core)
+    imitation_teacher: str = "scripted"
     imitation_buffer_iters: int = 8  # DAgger aggregates the labelled data of this many iterations
     imitation_updates: int = 0  # gradient steps per iteration on the aggregate (0 = epochs over the new batch)
     # PPO fine-tuning of a warm-started net (beyond the paper): the first critic_warmup_iters PPO

@@ -13,7 +13,7 @@ from tensordict.nn import TensorDictModuleBase
 
 from occrl.baselines.scripted import ScriptedRetriever
 
-__all__ = ["ExpertMixPolicy", "label_with_expert"]
+__all__ = ["ExpertMixPolicy", "label_with_expert", "label_with_planner"]
 
 
 class ExpertMixPolicy(TensorDictModuleBase):
@@ -81,5 +81,28 @@ def label_with_expert(data: TensorDictBase, expert: ScriptedRetriever) -> Tensor
     """
     flat = data.reshape(-1)
     labels = expert(flat.select("gripper_pose", "gripper_opening", "gripper_closed", "privileged").copy()).get("action")
+    data.set("expert_action", labels.reshape(*data.shape, -1))
+    return data
+
+
+def label_with_planner(data: TensorDictBase, net, seed: int = 0, m: int = 4, h: int = 4) -> TensorDictBase:
+    """Write ``"expert_action"``: the hybrid m x h planner's decision on every step of a collected
+    batch, each from the step's own observation and stored LSTM state (expert iteration: the
+    planner improves on the network, the network imitates the planner; no privileged keys).
+
+    Examples:
+        >>> from occrl.envs import make_env
+        >>> from occrl.modules import make_occnet
+        >>> from occrl.training.dagger import label_with_planner
+        >>> net = make_occnet("paper").eval()
+        >>> data = make_env(batch_size=1, seed=0).append_transform(net.make_primer()).rollout(2, net.policy)
+        >>> label_with_planner(data, net, m=2, h=2)["expert_action"].shape
+        torch.Size([1, 2, 4])
+    """
+    from occrl.planners import HybridPlanner
+
+    planner = HybridPlanner(net, m=m, h=h, seed=seed)
+    flat = data.reshape(-1)
+    labels = planner(flat.select(*planner.in_keys).copy()).get("action")
     data.set("expert_action", labels.reshape(*data.shape, -1))
     return data

@@ -35,7 +35,7 @@ from occrl.objectives import PPOHeatmapLoss, compute_advantages, heatmap_loss, i
 from occrl.training.checkpoint import load_checkpoint, load_weights, save_checkpoint, save_weights
 from occrl.training.config import TrainConfig
 from occrl.training.curriculum import Curriculum
-from occrl.training.dagger import ExpertMixPolicy, label_with_expert
+from occrl.training.dagger import ExpertMixPolicy, label_with_expert, label_with_planner
 from occrl.training.dagger_buffer import DaggerBuffer
 
 __all__ = ["Trainer", "episode_stats"]
@@ -153,6 +153,10 @@ class Trainer:
         if config.replay_stage_workers and (config.collector == "single" or config.replay_stage_workers >= config.workers):
             raise ValueError(f"replay_stage_workers={config.replay_stage_workers} needs collector 'multi' or 'ray' and "
                              f"fewer than workers={config.workers} (got collector {config.collector!r})")
+        if config.imitation_teacher not in ("scripted", "hybrid"):
+            raise ValueError(f"imitation_teacher must be 'scripted' or 'hybrid', got {config.imitation_teacher!r}")
+        if config.imitation_teacher == "hybrid" and not config.heatmap:
+            raise ValueError("imitation_teacher='hybrid' needs the heat-map head (the hybrid planner uses it)")
         if config.promotion == "hybrid" and not config.heatmap:
             raise ValueError("promotion='hybrid' needs the heat-map head (the hybrid planner uses it); use 'learner'")
         self.config = config
@@ -245,7 +249,7 @@ class Trainer:
         """Probability that the expert acts: 1 -> ``imitation_beta_min`` over the first
         ``imitation_beta_iters`` iterations of the warm start, 0 afterwards (PPO)."""
         c = self.config
-        if self.iteration >= c.imitation_iters:
+        if self.iteration >= c.imitation_iters or c.imitation_teacher == "hybrid":
             return 0.0
         if c.imitation_beta_iters <= 0:
             return c.imitation_beta_min
@@ -512,7 +516,9 @@ class Trainer:
                 beta = self._beta()
                 data = self._collect()
                 t_collect = time.time() - t0
-                if phase == "imitation" or c.ppo_bc_coeff > 0:
+                if phase == "imitation" and c.imitation_teacher == "hybrid":
+                    label_with_planner(data, self.net, seed=self.seed * 1_000_003 + self.iteration)
+                elif phase == "imitation" or c.ppo_bc_coeff > 0:
                     label_with_expert(data, self.expert)
                 compute_advantages(self.net, data, c.gamma, c.gae_lambda)
                 losses = self._update(data, phase)
