@@ -72,8 +72,9 @@ class TrainConfig:
     target_kl: float = 0.0  # > 0: stop an iteration's PPO epochs once a minibatch's approximate KL exceeds 1.5 x this
     # curriculum. promotion="hybrid" is the paper's rule: hybrid 4x4 success > promote_threshold,
     # measured every promotion_eval_every iterations (imitation or PPO; not during the critic
-    # warm-up) on promotion_eval_tasks fixed validation tasks of the current stage. promotion="learner" is a cheap proxy: the learner's own success
-    # over its last promote_window training episodes.
+    # warm-up) on promotion_eval_tasks fixed validation tasks of the current stage.
+    # promotion="learner" is a cheap proxy: the learner's own success over its last
+    # promote_window training episodes.
     start_stage: int = 1
     promote_threshold: float = 0.8
     promote_window: int = 300  # episodes the success rate is measured over
@@ -153,6 +154,8 @@ TRAIN_PRESETS: dict[str, TrainConfig] = {
     # iterations); one of the two collector workers keeps the previous stage. Batch-norm
     # statistics frozen and Adam at 3e-5: with them refreshed and 1e-4 the first attempt lost
     # 15 points of stage-1 and 12 of stage-2 success in 158 iterations (docs/decisions.md).
+    # With the scripted teacher it does not improve the net; with ``--imitation-teacher hybrid``
+    # (expert iteration; use ``--num-envs 8``, labels cost a planner decision each) it does.
     "cpu-curriculum": TrainConfig(
         preset="cpu-curriculum",
         optimizer="adam",

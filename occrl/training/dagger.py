@@ -3,6 +3,8 @@
 Behaviour cloning on expert trajectories compounds errors once the learner drifts; DAgger labels
 the states the *learner* visits (Ross et al., 2011). Early on, the expert itself acts with
 probability ``beta`` so the learner sees successful endings too; ``beta`` decays to 0.
+:func:`label_with_planner` labels with the hybrid planner instead (expert iteration): a teacher
+that, like the learner, sees only detections and searches for a hidden target.
 """
 
 from __future__ import annotations
