@@ -103,28 +103,31 @@ class TrainConfig:
         return cls(**d)
 
 
+# What trains on this project's 2-core CPU machines: the paper's network and loss, Adam at a
+# higher learning rate, two epochs per batch, two collector processes, and a DAgger warm
+# start on the scripted retriever before PPO (see docs/training.md).
+_CPU = TrainConfig(
+    preset="cpu",
+    optimizer="adam",
+    lr=3e-4,
+    epochs=2,
+    collector="multi",
+    num_envs=32,
+    imitation_iters=400,
+    imitation_beta_iters=50,
+    imitation_beta_min=0.3,
+    imitation_buffer_iters=16,
+    imitation_updates=16,
+    heatmap_fraction=0.25,
+    batch_norm_frames=400,
+)
+
+
 TRAIN_PRESETS: dict[str, TrainConfig] = {
     # Paper Sec. V / VI-B: RMSProp, lr 5e-5, c1 0.5, c2 0.01, c3 1.0, gamma 0.995, M = 1500,
     # promotion by hybrid 4x4 success.
     "paper": TrainConfig(promotion="hybrid"),
-    # What trains on this project's 2-core CPU machines: the paper's network and loss, Adam at a
-    # higher learning rate, two epochs per batch, two collector processes, and a DAgger warm
-    # start on the scripted retriever before PPO (see docs/training.md).
-    "cpu": TrainConfig(
-        preset="cpu",
-        optimizer="adam",
-        lr=3e-4,
-        epochs=2,
-        collector="multi",
-        num_envs=32,
-        imitation_iters=400,
-        imitation_beta_iters=50,
-        imitation_beta_min=0.3,
-        imitation_buffer_iters=16,
-        imitation_updates=16,
-        heatmap_fraction=0.25,
-        batch_norm_frames=400,
-    ),
+    "cpu": _CPU,
     # PPO after the "cpu" warm start, started from its weights (``occrl train --init-weights occnet``):
     # the plain continuation (lr 3e-4, entropy bonus, batch-norm refresh) collapsed within 15
     # iterations. Here: steps 30 times smaller (one Adam step at 3e-5 already moved the policy by
@@ -156,19 +159,13 @@ TRAIN_PRESETS: dict[str, TrainConfig] = {
     # 15 points of stage-1 and 12 of stage-2 success in 158 iterations (docs/decisions.md).
     # With the scripted teacher it does not improve the net; with ``--imitation-teacher hybrid``
     # (expert iteration; use ``--num-envs 8``, labels cost a planner decision each) it does.
-    "cpu-curriculum": TrainConfig(
+    # Otherwise the "cpu" preset's settings.
+    "cpu-curriculum": replace(
+        _CPU,
         preset="cpu-curriculum",
-        optimizer="adam",
         lr=3e-5,
-        epochs=2,
-        collector="multi",
-        num_envs=32,
         imitation_iters=100_000,
         imitation_beta_iters=0,
-        imitation_beta_min=0.3,
-        imitation_buffer_iters=16,
-        imitation_updates=16,
-        heatmap_fraction=0.25,
         batch_norm_frames=0,
         promotion="hybrid",
         promotion_eval_every=25,
