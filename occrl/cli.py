@@ -27,6 +27,16 @@ def _gl_available() -> bool:
     return ok
 
 
+def _weights_file(value: str | None) -> str | None:
+    """``--weights``: a weights file, or the name of a shipped network (e.g. ``occnet-ei``) turned
+    into its file inside the package; anything else is left for the loader to refuse."""
+    if value is None or Path(value).exists():
+        return value
+    from occrl.pretrained import _FILES, pretrained_path
+
+    return str(pretrained_path(value)) if value in _FILES else value
+
+
 def _demo(args: argparse.Namespace) -> int:
     import numpy as np
 
@@ -50,11 +60,11 @@ def _demo(args: argparse.Namespace) -> int:
         from occrl.training.checkpoint import load_weights
         from occrl.pretrained import load_pretrained
 
-        net = load_weights(args.weights) if args.weights else load_pretrained("occnet")
+        net = load_weights(_weights_file(args.weights)) if args.weights else load_pretrained("occnet")
         m, h = (int(v) for v in method.split("-")[-1].split("x"))
         policy = HybridPlanner(net, m=m, h=h, seed=args.seed)
         primers = [net.make_primer()]
-        card = model_card("occnet") if not args.weights else {"file": args.weights}
+        card = model_card(args.weights or "occnet") or {"file": args.weights}
         label = f"hybrid planner {m}x{h} with network {card.get('summary', card)}"
     rows, frames_all = [], []
     print(f"occrl demo: {label}\n{args.tasks} random stage-{args.stage} shelves (task seeds {args.seed}..{args.seed + args.tasks - 1})")
@@ -149,6 +159,14 @@ def _eval(args: argparse.Namespace) -> int:
     from occrl.eval.methods import METHODS, PLANNERS
     from occrl.eval.runner import run_tasks, summarize
 
+    if args.rollout_min_scale:
+        if args.sweep or not (args.method or "").startswith("hybrid"):
+            print("--rollout-min-scale applies to a single hybrid method (--method hybrid-...), not to "
+                  f"{'a sweep' if args.sweep else repr(args.method)}", file=sys.stderr)
+            return 2
+        if not 0.0 <= args.rollout_min_scale <= 1.0:  # also catches NaN
+            print(f"--rollout-min-scale must be in [0, 1] (a standard deviation in action units), got {args.rollout_min_scale}", file=sys.stderr)
+            return 2
     if args.sweep:
         from occrl.eval.sweep import run_sweep
 
@@ -159,7 +177,7 @@ def _eval(args: argparse.Namespace) -> int:
             return 2
         try:
             out = run_sweep(methods, args.out or "occrl-sweep", args.tasks, args.seed, batch=args.batch, workers=args.workers,
-                            weights=args.weights, progress=not args.no_progress, backend=args.backend,
+                            weights=_weights_file(args.weights), progress=not args.no_progress, backend=args.backend,
                             ray_address=args.ray_address, chunk=args.chunk, films=True)
         finally:
             _stop_ray_if_used(args)
@@ -178,8 +196,9 @@ def _eval(args: argparse.Namespace) -> int:
     if args.world == "mujoco":
         batch = 1  # one MuJoCo world per task: per-task time is exact and memory stays small
     try:
-        results = run_tasks(args.method, args.stage, seeds, args.noise, objects, batch, args.workers, args.weights,
-                            not args.no_progress, backend=args.backend, ray_address=args.ray_address, world=args.world)
+        results = run_tasks(args.method, args.stage, seeds, args.noise, objects, batch, args.workers, _weights_file(args.weights),
+                            not args.no_progress, backend=args.backend, ray_address=args.ray_address, world=args.world,
+                            rollout_min_scale=args.rollout_min_scale)
     finally:
         _stop_ray_if_used(args)
     summary = {
@@ -190,6 +209,7 @@ def _eval(args: argparse.Namespace) -> int:
         "noise": args.noise,
         "world": args.world,
         "first_seed": args.seed,
+        **({"rollout_min_scale": args.rollout_min_scale} if args.rollout_min_scale else {}),
         **summarize(results),
         "episodes": [r.to_dict() for r in results],
     }
@@ -238,7 +258,7 @@ def _export(args: argparse.Namespace) -> int:
     import torch
 
     from occrl.pretrained import _DIR, _FILES
-    from occrl.training.checkpoint import load_weights, save_weights
+    from occrl.training.checkpoint import load_checkpoint, load_weights, save_weights
     from occrl.training.plots import read_metrics
 
     if args.name not in _FILES:
@@ -266,6 +286,11 @@ def _export(args: argparse.Namespace) -> int:
         "summary": f"{args.name}: preset {args.preset}, iteration {last['iteration']}, {last['frames']:,} frames, stage {stage}, "
                    f"{last['phase']} phase",
     }
+    checkpoint = run / "checkpoint.pt"
+    started_from = load_checkpoint(checkpoint)["state"].get("init_weights") if checkpoint.exists() else None
+    if started_from:  # the run began from another network (--init-weights): its own training comes first
+        card["init_weights"] = Path(started_from["path"]).name
+        card["summary"] += f", started from {Path(started_from['path']).name}"
     dest = Path(args.dest) if args.dest else _DIR
     dest.mkdir(parents=True, exist_ok=True)
     save_weights(dest / _FILES[args.name], net, card)
@@ -306,7 +331,7 @@ def main(argv: list[str] | None = None) -> int:
     d.add_argument("--out", default="occrl-demo")
     d.add_argument("--fps", type=float, default=4.0)
     d.add_argument("--method", default="hybrid-4x4", choices=["hybrid-2x2", "hybrid-4x4", "hybrid-6x6", "scripted"])
-    d.add_argument("--weights", default=None, help="network weights instead of the shipped occnet")
+    d.add_argument("--weights", default=None, help="network weights file or a shipped network's name instead of occnet")
     d.add_argument("--world", choices=["pymunk", "mujoco"], default="pymunk",
                    help="execute in the 2D pymunk world or the 3D MuJoCo shelf (frames add the gripper-camera image)")
     d.set_defaults(func=_demo)
@@ -360,14 +385,16 @@ def main(argv: list[str] | None = None) -> int:
     e.add_argument("--backend", choices=["local", "ray"], default="local",
                    help="local processes or Ray actors (results are the same for the same seeds)")
     e.add_argument("--ray-address", default=None, help="with --backend ray: join this Ray cluster (default: a local runtime)")
-    e.add_argument("--weights", default=None, help="network weights file instead of the shipped one")
+    e.add_argument("--weights", default=None, help="network weights file, or a shipped network's name (occnet-ei), instead of the method's default")
+    e.add_argument("--rollout-min-scale", type=float, default=0.0,
+                   help="hybrid planners: floor on the roll-out policy's standard deviation (default 0: the policy's own, as in the paper)")
     e.add_argument("--out", default=None, help="write the results as JSON")
     e.add_argument("--no-progress", action="store_true")
     e.set_defaults(func=_eval)
 
     x = sub.add_parser("export", help="ship a training run's weights in the package (occrl.load_pretrained)")
     x.add_argument("--run-dir", required=True)
-    x.add_argument("--name", required=True, help="occnet or occnet-noheatmap")
+    x.add_argument("--name", required=True, help="occnet, occnet-noheatmap or occnet-ei")
     x.add_argument("--preset", required=True, help="the training preset the run used")
     x.add_argument("--seed", type=int, default=0)
     x.add_argument("--weights", default=None,

@@ -214,11 +214,11 @@ def summarize(results: Sequence[EpisodeResult]) -> dict:
 _WORKER: dict = {}
 
 
-def _init_worker(method: str, weights, threads: int) -> None:
+def _init_worker(method: str, weights, threads: int, rollout_min_scale: float = 0.0) -> None:
     from occrl.eval.methods import make_method
 
     torch.set_num_threads(threads)
-    _WORKER["method"] = make_method(method, weights)
+    _WORKER["method"] = make_method(method, weights, rollout_min_scale=rollout_min_scale)
 
 
 def _run_chunk(args) -> list[EpisodeResult]:
@@ -228,7 +228,8 @@ def _run_chunk(args) -> list[EpisodeResult]:
                         world=world)
 
 
-def _run_tasks_ray(method: str, weights, jobs: list, workers: int, address: str | None, bar, max_restarts: int = 2) -> list:
+def _run_tasks_ray(method: str, weights, jobs: list, workers: int, address: str | None, bar, max_restarts: int = 2,
+                   rollout_min_scale: float = 0.0) -> list:
     """Chunks on ``workers`` Ray actors (one CPU each); a chunk whose actor died runs again on a new
     actor (chunks are seeded by their tasks, so the repeat gives the same results)."""
     from occrl.distributed import WorkerDiedError, is_worker_death, require_ray, start_ray
@@ -246,7 +247,7 @@ def _run_tasks_ray(method: str, weights, jobs: list, workers: int, address: str 
 
                 path = Path(tempfile.mkdtemp()) / "weights.pt"
                 path.write_bytes(weights_blob)
-            _init_worker(method, path, 1)
+            _init_worker(method, path, 1, rollout_min_scale)
 
         def run(self, job):
             return _run_chunk(job)
@@ -298,13 +299,15 @@ def run_tasks(
     backend: str = "local",
     ray_address: str | None = None,
     world: str = "pymunk",
+    rollout_min_scale: float = 0.0,
 ) -> list[EpisodeResult]:
     """Evaluate a named method on task seeds, in chunks of ``batch`` worlds spread over
     ``workers`` processes (``backend="local"``) or Ray actors (``backend="ray"``, a local runtime
     or the cluster at ``ray_address``). Results do not depend on ``workers`` or ``backend``
     (per-task wall time aside). ``world="mujoco"`` executes in the 3D MuJoCo env (the planners
     still plan in pymunk, recreated from its detections); ``num_objects=(low, high)`` draws each
-    task's object count from its seed.
+    task's object count from its seed. ``rollout_min_scale`` goes to the hybrid planners
+    (:func:`~occrl.eval.methods.make_method`).
 
     Examples:
         >>> from occrl.eval.runner import EVAL_SEED_BASE, run_tasks, summarize
@@ -321,9 +324,9 @@ def run_tasks(
     results: list[list[EpisodeResult]] = [None] * len(chunks)
     jobs = [(stage, c, num_objects, noise, world) for c in chunks]
     if backend == "ray":
-        results = _run_tasks_ray(method, weights, jobs, max(1, workers), ray_address, bar)
+        results = _run_tasks_ray(method, weights, jobs, max(1, workers), ray_address, bar, rollout_min_scale=rollout_min_scale)
     elif workers <= 1:
-        _init_worker(method, weights, torch.get_num_threads())
+        _init_worker(method, weights, torch.get_num_threads(), rollout_min_scale)
         for k, job in enumerate(jobs):
             results[k] = _run_chunk(job)
             bar.update(len(job[1]))
@@ -331,7 +334,7 @@ def run_tasks(
         import multiprocessing as mp
         from concurrent.futures import ProcessPoolExecutor, as_completed
 
-        with ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn"), initializer=_init_worker, initargs=(method, weights, 1)) as pool:
+        with ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn"), initializer=_init_worker, initargs=(method, weights, 1, rollout_min_scale)) as pool:
             futures = {pool.submit(_run_chunk, job): k for k, job in enumerate(jobs)}
             for f in as_completed(futures):
                 results[futures[f]] = f.result()

@@ -85,6 +85,10 @@ class HybridPlanner(TensorDictModuleBase):
         seed: seeds the roll-outs' policy noise; a decision is a function of the observation
             history and this seed.
         batched: use the lock-step RHP (False: the sequential reference).
+        rollout_min_scale: floor on the policy's standard deviations in the roll-outs (0, the
+            paper: the policy's own). A network whose spread has shrunk, e.g. after expert
+            iteration, gives m nearly equal roll-outs and nothing to choose from; a floor keeps
+            the m candidates apart (beyond the paper; docs/decisions.md).
 
     Examples:
         >>> import torch
@@ -108,18 +112,22 @@ class HybridPlanner(TensorDictModuleBase):
         gamma: float = C.GAMMA,
         seed: int = 0,
         batched: bool = True,
+        rollout_min_scale: float = 0.0,
     ) -> None:
         super().__init__()
         if net.heatmap is None:
             raise ValueError("the hybrid planner needs a network with a heat-map head (make_occnet(heatmap=True))")
         if m < 1 or h < 1:
             raise ValueError(f"m and h must be >= 1, got m={m}, h={h}")
+        if not 0.0 <= rollout_min_scale <= 1.0:
+            raise ValueError(f"rollout_min_scale must be in [0, 1] (a standard deviation in action units), got {rollout_min_scale}")
         self.net = net.eval()
         self.m, self.h = int(m), int(h)
         self.limited = limited
         self.max_roots = 1 if limited else int(max_roots)
         self.gamma = gamma
         self.batched = batched
+        self.rollout_min_scale = float(rollout_min_scale)
         self.generator = torch.Generator().manual_seed(int(seed))
         self.decisions: list[Decision] = []
         self.in_keys = ["pixels", "is_init", "recurrent_state_h", "recurrent_state_c", "gripper_pose", "gripper_opening",
@@ -160,7 +168,7 @@ class HybridPlanner(TensorDictModuleBase):
             roots[0].weight = 1.0
         noise = torch.randn(len(roots), self.m, self.h, C.ACTION_DIM, generator=self.generator)
         rhp = rhp_batched if self.batched else rhp_sequential
-        result = rhp(self.net, [r.state for r in roots], hidden, noise, self.gamma)
+        result = rhp(self.net, [r.state for r in roots], hidden, noise, self.gamma, self.rollout_min_scale)
         chosen = select_root(np.array([r.weight for r in roots]), result.value)
         decision = Decision(roots, result, chosen, result.action[chosen], time.perf_counter() - t0, heatmap)
         self.decisions.append(decision)

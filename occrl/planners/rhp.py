@@ -73,9 +73,10 @@ class NetworkStepper:
         (torch.Size([2, 4]), torch.Size([2, 1, 128]), torch.Size([2]))
     """
 
-    def __init__(self, net: OccNet) -> None:
+    def __init__(self, net: OccNet, min_scale: float = 0.0) -> None:
         self.net = net
         self.head = net.actor.module[0]  # writes "loc", "scale" from "belief"
+        self.min_scale = float(min_scale)  # floor on the roll-outs' policy spread (0: the policy's own)
 
     @torch.no_grad()
     def step(self, pixels: torch.Tensor, h: torch.Tensor, c: torch.Tensor) -> tuple[TensorDict, torch.Tensor, torch.Tensor]:
@@ -86,6 +87,8 @@ class NetworkStepper:
         )
         td = self.net.trunk(td)
         td = self.head(td)
+        if self.min_scale > 0:
+            td.set("scale", td.get("scale").clamp(min=self.min_scale))
         return td, td.get(("next", "recurrent_state_h")), td.get(("next", "recurrent_state_c"))
 
     @torch.no_grad()
@@ -133,9 +136,11 @@ def rhp_batched(
     hidden: tuple[torch.Tensor, torch.Tensor],
     noise: torch.Tensor,
     gamma: float = C.GAMMA,
+    min_scale: float = 0.0,
 ) -> RHPResult:
     """All roots x m roll-outs in lock-step. ``hidden``: the LSTM state before the current
     observation, each (1, layers, H). ``noise``: (R, m, h, 4) standard normal draws.
+    ``min_scale`` > 0 floors the policy's standard deviations in the roll-outs (beyond the paper).
 
     Examples:
         >>> import numpy as np
@@ -152,7 +157,7 @@ def rhp_batched(
         ((2, 4), (2,), 8)
     """
     R, m, depth, _ = noise.shape
-    stepper = NetworkStepper(net)
+    stepper = NetworkStepper(net, min_scale)
     worlds = [make_world(root) for root in roots for _ in range(m)]
     n = len(worlds)
     # the m roll-outs of a root start from the same state: render and encode it once per root
@@ -203,6 +208,7 @@ def rhp_sequential(
     hidden: tuple[torch.Tensor, torch.Tensor],
     noise: torch.Tensor,
     gamma: float = C.GAMMA,
+    min_scale: float = 0.0,
 ) -> RHPResult:
     """Alg. 2 as printed: for each root, for each roll-out, step by step (the reference).
 
@@ -220,7 +226,7 @@ def rhp_sequential(
         (True, True)
     """
     R, m, depth, _ = noise.shape
-    stepper = NetworkStepper(net)
+    stepper = NetworkStepper(net, min_scale)
     returns = np.zeros((R, m))
     first = np.zeros((R, m, 4))
     paths = np.full((R, m, depth + 1, 3), np.nan)

@@ -2,7 +2,9 @@
 
 ``occrl.load_pretrained("occnet")`` is the full three-headed net (used by the hybrid planner and
 the Stochastic-gen baseline); ``"occnet-noheatmap"`` the net without heat-map head (Greedy and
-Stochastic baselines). ``MODEL_CARDS`` says how each was trained; the README has the figures.
+Stochastic baselines); ``"occnet-ei"`` is ``occnet`` after expert iteration on stage 2 (its own
+sampled policy is better on every stage; the hybrid planner is not: use it with
+``occrl eval --method stochastic-gen --weights occnet-ei``). ``MODEL_CARDS`` says how each was trained; the README has the figures.
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ from occrl.training.checkpoint import load_weights
 __all__ = ["load_pretrained", "available", "model_card", "pretrained_path"]
 
 _DIR = Path(__file__).resolve().parent
-_FILES = {"occnet": "occnet.pt", "occnet-noheatmap": "occnet-noheatmap.pt"}
+_FILES = {"occnet": "occnet.pt", "occnet-noheatmap": "occnet-noheatmap.pt", "occnet-ei": "occnet-ei.pt"}
 
 
 def available() -> list[str]:
@@ -73,7 +75,7 @@ def pretrained_path(name: str) -> Path:
         >>> pretrained_path("occnet-v9")
         Traceback (most recent call last):
             ...
-        ValueError: unknown pretrained network 'occnet-v9'; known: ['occnet', 'occnet-noheatmap']
+        ValueError: unknown pretrained network 'occnet-v9'; known: ['occnet', 'occnet-ei', 'occnet-noheatmap']
     """
     if name not in _FILES:
         raise ValueError(f"unknown pretrained network {name!r}; known: {sorted(_FILES)}")

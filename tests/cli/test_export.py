@@ -24,3 +24,19 @@ def test_export_the_warm_start_weights_with_their_own_card(tmp_path):
     assert main(["export", "--run-dir", str(run), "--name", "occnet", "--preset", "tiny", "--dest", str(dest)]) == 0
     assert json.loads((dest / "model_cards.json").read_text())["occnet"]["iterations"] == 3
     assert main(["export", "--run-dir", str(run), "--name", "mystery", "--preset", "tiny", "--dest", str(dest)]) == 2
+
+
+def test_a_run_started_from_other_weights_names_them_in_its_card(tmp_path):
+    from occrl.modules import make_occnet
+    from occrl.training import save_weights
+
+    start = tmp_path / "start.pt"
+    save_weights(start, make_occnet("paper"))
+    run = tmp_path / "run"
+    trainer = Trainer(get_train_config("tiny"), run, seed=0, progress=False, tensorboard=False, init_weights=start)
+    trainer.train(iterations=1)
+    trainer.close()
+    dest = tmp_path / "shipped"
+    assert main(["export", "--run-dir", str(run), "--name", "occnet-ei", "--preset", "tiny", "--dest", str(dest)]) == 0
+    card = json.loads((dest / "model_cards.json").read_text())["occnet-ei"]
+    assert card["init_weights"] == "start.pt" and card["summary"].endswith("started from start.pt")

@@ -1,0 +1,83 @@
+"""Why did a method fail? Replays the failed tasks of an `occrl eval --out` file and sorts them.
+
+    python scripts/failure_categories.py results/heldout/hybrid-4x4_s2.json --limit 40
+    python scripts/failure_categories.py F.json --weights W.pt   # the run was made with --weights
+
+Each failed task is run again (same method, task seed and noise, so the same episode) and put in
+one category, read from the env's privileged ground truth (analysis only; no method reads it):
+
+- dropped: an object fell off the front edge;
+- never detected: the target was never reported by perception;
+- detected, never held: seen at some step, never between the fingers;
+- held, not out: grasped at some step but not pulled out within 50 actions.
+
+It also prints the share of the episode's steps with the gripper outside the shelf (y < 0): a
+failure with the target seen and the gripper outside all along is a search that never went in.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+import torch
+from torchrl.envs.utils import ExplorationType, set_exploration_type
+
+from occrl.envs import world_constants as C
+from occrl.eval.methods import make_method
+from occrl.eval.runner import seeded_task_env, task_scenes
+
+
+def categorise(td) -> dict:
+    """Category and facts of one replayed episode (a [1, T] rollout)."""
+    slot = td["privileged", "target_slot"][0, :, 0]
+    detected = td["objects", "detected"][0].gather(1, slot[:, None])[:, 0].numpy()
+    held = td["next", "privileged", "target_held"][0, :, 0].numpy()
+    dropped = td["next", "dropped"][0, :, 0].numpy()
+    outside = (td["gripper_pose"][0, :, 1] < 0).numpy()
+    if dropped.any():
+        category = "dropped"
+    elif not detected.any():
+        category = "never detected"
+    elif not held.any():
+        category = "detected, never held"
+    else:
+        category = "held, not out"
+    return {"category": category, "first_detected": int(np.argmax(detected)) if detected.any() else None,
+            "detected_share": float(detected.mean()), "outside_share": float(outside.mean()),
+            "target_depth_m": float(td["privileged", "target_pose"][0, 0, 1])}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("result", type=Path, help="an `occrl eval --out` JSON file (2D world)")
+    parser.add_argument("--weights", default=None, help="the --weights the evaluation used (default: shipped net)")
+    parser.add_argument("--limit", type=int, default=None, help="replay only the first N failures")
+    args = parser.parse_args()
+
+    d = json.loads(args.result.read_text())
+    if d.get("world", "pymunk") != "pymunk" or d.get("objects"):
+        raise SystemExit("only evaluations of the 2D world with the stage's own object counts can be replayed here")
+    failed = [e["seed"] for e in d["episodes"] if not e["success"]][: args.limit]
+    method = make_method(d["method"], args.weights)
+    counts: Counter = Counter()
+    outside = []
+    for seed in failed:
+        env = seeded_task_env(method.policy, task_scenes(d["stage"], [seed]), [seed], d["noise"], method.primers)
+        with torch.no_grad(), set_exploration_type(method.exploration):
+            td = env.rollout(C.MAX_EPISODE_STEPS, method.policy, break_when_any_done=False)
+        facts = categorise(td)
+        counts[facts["category"]] += 1
+        outside.append(facts["outside_share"])
+        print(f"seed {seed}: {facts['category']:22s} first seen at step {facts['first_detected']}, seen on "
+              f"{facts['detected_share']:.0%} of steps, gripper outside on {facts['outside_share']:.0%}, target depth {facts['target_depth_m']:.2f} m", flush=True)
+    print(f"{d['method']} stage {d['stage']}: {len(failed)} failures replayed: " + ", ".join(f"{k} {v}" for k, v in counts.most_common()))
+    outside = np.array(outside)
+    print(f"gripper outside the shelf on >= 90 % of the steps in {(outside >= 0.9).sum()} of {len(failed)} failures")
+
+
+if __name__ == "__main__":
+    main()

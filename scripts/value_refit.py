@@ -1,0 +1,134 @@
+"""Is the value head what holds the hybrid planner back on stage 2? Refit it and see.
+
+    python scripts/value_refit.py --out ~/diag/occnet_vfit.pt                      # the shipped occnet
+    python scripts/value_refit.py --weights checkpoints/expert-iteration-seed0/weights.pt --out W.pt
+    occrl eval --method hybrid-4x4 --stage 2 --tasks 60 --seed 20000000 --weights W.pt   # then compare
+
+The planner scores each roll-out by its rewards plus gamma^h V at the horizon, V being the value
+of the stochastic policy it rolls out. This script collects that policy's own episodes on
+stages 1-3 (task seeds from 40,000,000, apart from the held-out and validation ranges), computes
+the LSTM beliefs once with the trunk frozen, and fits a copy of the value head to the discounted
+returns (truncated episodes bootstrapped with the head's value of their last state, so the fit is
+repeated for ``--rounds`` rounds). It prints the correlation and explained variance of the
+original and the refitted head on a tenth of the episodes kept out of the fit, per stage, and
+writes the network with the refitted head.
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import time
+
+import numpy as np
+import torch
+from tensordict import TensorDict
+from torchrl.envs.utils import ExplorationType, set_exploration_type
+from torchrl.modules import set_recurrent_mode
+
+from occrl.envs import world_constants as C
+from occrl.eval.methods import make_method
+from occrl.eval.runner import seeded_task_env, task_scenes
+from occrl.pretrained import load_pretrained
+from occrl.training import load_weights, save_weights
+
+FIT_SEED_BASE = 40_000_000
+
+
+def collect(weights: str | None, per_stage: int, batch: int = 64) -> list[dict]:
+    """The stochastic policy's episodes: beliefs, rewards, and whether each ended by termination."""
+    method = make_method("stochastic-gen", weights)
+    net = load_weights(weights) if weights else load_pretrained("occnet")
+    net.eval()
+    episodes = []
+    start_time = time.time()
+    for stage in (1, 2, 3):
+        for start in range(0, per_stage, batch):
+            first = FIT_SEED_BASE + stage * 100_000 + start
+            seeds = list(range(first, first + min(batch, per_stage - start)))
+            env = seeded_task_env(method.policy, task_scenes(stage, seeds), seeds, 0.0, method.primers)
+            with torch.no_grad(), set_exploration_type(ExplorationType.RANDOM):
+                td = env.rollout(C.MAX_EPISODE_STEPS, method.policy, break_when_any_done=False)
+                with set_recurrent_mode(True):
+                    belief = net.trunk(td.select("pixels", "is_init").copy()).get("belief")
+            reward = td["next", "reward"][..., 0]
+            done = td["next", "done"][..., 0]
+            terminated = td["next", "terminated"][..., 0]
+            for b in range(len(seeds)):
+                end = int(torch.nonzero(done[b])[0]) if done[b].any() else reward.shape[1] - 1
+                episodes.append({"stage": stage, "belief": belief[b, : end + 1].clone(), "reward": reward[b, : end + 1].clone(),
+                                 "terminated": bool(terminated[b, end])})
+            print(f"stage {stage}: {start + len(seeds)} episodes collected ({time.time() - start_time:.0f} s)", flush=True)
+    return episodes
+
+
+def value_of(head, belief: torch.Tensor) -> torch.Tensor:
+    return head(TensorDict({"belief": belief}, batch_size=[belief.shape[0]])).get("state_value")[:, 0]
+
+
+@torch.no_grad()
+def targets(head, episodes: list[dict]) -> list[torch.Tensor]:
+    """Discounted returns; a truncated episode is bootstrapped with ``head``'s value of its last state."""
+    out = []
+    for ep in episodes:
+        g = 0.0 if ep["terminated"] else float(value_of(head, ep["belief"][-1:])[0])
+        y = torch.zeros(len(ep["reward"]))
+        for t in range(len(y) - 1, -1, -1):
+            g = float(ep["reward"][t]) + C.GAMMA * g
+            y[t] = g
+        out.append(y)
+    return out
+
+
+@torch.no_grad()
+def report(head, episodes: list[dict], ys: list[torch.Tensor], label: str) -> None:
+    for stage in (1, 2, 3):
+        idx = [i for i, ep in enumerate(episodes) if ep["stage"] == stage]
+        v = torch.cat([value_of(head, episodes[i]["belief"]) for i in idx]).numpy()
+        y = torch.cat([ys[i] for i in idx]).numpy()
+        print(f"{label:16s} stage {stage}: correlation {np.corrcoef(v, y)[0, 1]:.2f}, explained variance "
+              f"{1 - np.var(y - v) / np.var(y):.2f} (mean value {v.mean():.1f}, mean return {y.mean():.1f})", flush=True)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--weights", default=None, help="network to start from (default: the shipped occnet)")
+    parser.add_argument("--episodes-per-stage", type=int, default=512)
+    parser.add_argument("--rounds", type=int, default=4)
+    parser.add_argument("--epochs", type=int, default=15, help="passes over the data per round")
+    parser.add_argument("--out", required=True, help="weights file of the network with the refitted value head")
+    args = parser.parse_args()
+
+    torch.manual_seed(0)
+    episodes = collect(args.weights, args.episodes_per_stage)
+    order = np.random.default_rng(0).permutation(len(episodes))
+    test = [episodes[i] for i in order[: len(episodes) // 10]]
+    train = [episodes[i] for i in order[len(episodes) // 10 :]]
+
+    net = load_weights(args.weights) if args.weights else load_pretrained("occnet")
+    net.eval()
+    report(net.critic, test, targets(net.critic, test), "original head")
+    head = copy.deepcopy(net.critic)
+    optimizer = torch.optim.Adam(head.parameters(), lr=1e-3)
+    beliefs = torch.cat([ep["belief"] for ep in train])
+    ys = targets(net.critic, train)
+    for r in range(args.rounds):
+        if r:
+            ys = targets(head, train)
+        y = torch.cat(ys)
+        for _ in range(args.epochs):
+            perm = torch.randperm(len(y))
+            for s in range(0, len(y), 512):
+                j = perm[s : s + 512]
+                loss = torch.nn.functional.mse_loss(value_of(head, beliefs[j]), y[j])
+                optimizer.zero_grad()
+                loss.backward()
+                optimizer.step()
+        report(head, test, targets(head, test), f"refit, round {r + 1}")
+    net.critic.load_state_dict(head.state_dict())
+    save_weights(args.out, net, meta={"note": f"value head refitted by scripts/value_refit.py from {args.weights or 'occnet'}"})
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()
