@@ -124,6 +124,8 @@ def _train(args: argparse.Namespace) -> int:
         overrides["promotion"] = args.promotion
     if args.start_stage is not None:
         overrides["start_stage"] = args.start_stage
+    if args.replay_stage_workers is not None:
+        overrides["replay_stage_workers"] = args.replay_stage_workers
     if args.imitation_teacher:
         overrides["imitation_teacher"] = args.imitation_teacher
     config = get_train_config(args.preset, **overrides)
@@ -358,6 +360,8 @@ def main(argv: list[str] | None = None) -> int:
                         "planner on the current network (expert iteration)")
     t.add_argument("--start-stage", type=int, choices=[1, 2, 3], default=None,
                    help="curriculum stage of a new run (e.g. 2 when continuing a net that passed stage 1)")
+    t.add_argument("--replay-stage-workers", type=int, default=None,
+                   help="collector workers that keep collecting the previous stage after a promotion (or below --start-stage)")
     t.add_argument("--init-weights", default=None,
                    help="start a new run from these weights: a weights file (e.g. a run's weights_warmstart.pt) "
                         "or a shipped name (occnet, occnet-noheatmap); used by the cpu-finetune preset")

@@ -150,6 +150,8 @@ class Trainer:
                  max_worker_restarts: int = 2, init_weights: str | Path | None = None) -> None:
         if config.promotion not in ("learner", "hybrid"):
             raise ValueError(f"promotion must be 'learner' or 'hybrid', got {config.promotion!r}")
+        if config.replay_stage_workers < 0:
+            raise ValueError(f"replay_stage_workers must be >= 0, got {config.replay_stage_workers}")
         if config.replay_stage_workers and (config.collector == "single" or config.replay_stage_workers >= config.workers):
             raise ValueError(f"replay_stage_workers={config.replay_stage_workers} needs collector 'multi' or 'ray' and "
                              f"fewer than workers={config.workers} (got collector {config.collector!r})")
