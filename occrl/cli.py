@@ -32,9 +32,12 @@ def _weights_file(value: str | None) -> str | None:
     into its file inside the package; anything else is left for the loader to refuse."""
     if value is None or Path(value).exists():
         return value
-    from occrl.pretrained import _FILES, pretrained_path
+    from occrl.pretrained import pretrained_path
 
-    return str(pretrained_path(value)) if value in _FILES else value
+    try:
+        return str(pretrained_path(value))
+    except ValueError:  # not a shipped name either
+        return value
 
 
 def _demo(args: argparse.Namespace) -> int:

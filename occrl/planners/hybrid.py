@@ -88,7 +88,8 @@ class HybridPlanner(TensorDictModuleBase):
         rollout_min_scale: floor on the policy's standard deviations in the roll-outs (0, the
             paper: the policy's own). A network whose spread has shrunk, e.g. after expert
             iteration, gives m nearly equal roll-outs and nothing to choose from; a floor keeps
-            the m candidates apart (beyond the paper; docs/decisions.md).
+            the m candidates apart (beyond the paper; on `occnet-ei` it did not raise stage-2
+            success: docs/decisions.md).
 
     Examples:
         >>> import torch

@@ -2,9 +2,10 @@
 
 ``occrl.load_pretrained("occnet")`` is the full three-headed net (used by the hybrid planner and
 the Stochastic-gen baseline); ``"occnet-noheatmap"`` the net without heat-map head (Greedy and
-Stochastic baselines); ``"occnet-ei"`` is ``occnet`` after expert iteration on stage 2 (its own
-sampled policy is better on every stage; the hybrid planner is not: use it with
-``occrl eval --method stochastic-gen --weights occnet-ei``). ``MODEL_CARDS`` says how each was trained; the README has the figures.
+Stochastic baselines); ``"occnet-ei"`` is ``occnet`` after expert iteration on stage 2: its own
+sampled policy is better on every stage, the hybrid planner on it is no better than on ``occnet``
+(``occrl eval --method stochastic-gen --weights occnet-ei``). ``model_card`` says how each was
+trained; the README has the figures.
 """
 
 from __future__ import annotations
