@@ -108,7 +108,14 @@ def _env_factory(stage: int, noise: float, num_envs: int, seed: int, primer_net)
 
 
 def episode_stats(data: TensorDictBase) -> dict:
-    """Finished episodes of a [B, T] batch: success flags, returns and lengths.
+    """The first episode of each row of a [B, T] batch that starts with a reset, if it finished:
+    success flag, return and length.
+
+    Only the first: an episode that follows a finished one has T minus that one's length steps
+    left, so it is counted only when it is short, and short episodes are mostly successes; with
+    them the training success of stage 2 read ~15 points above the held-out figure of the same
+    policy. With ``steps_per_env`` at the 50-action limit (every preset but ``tiny``) every row's
+    first episode finishes in the batch, so the rate is unbiased.
 
     Examples:
         >>> from occrl.baselines import ScriptedRetriever
@@ -124,12 +131,12 @@ def episode_stats(data: TensorDictBase) -> dict:
     reward = data.get(("next", "reward")).squeeze(-1).numpy()
     succ, rets, lens = [], [], []
     for b in range(done.shape[0]):
-        start = 0
-        for t in np.flatnonzero(done[b]):
+        ends = np.flatnonzero(done[b])
+        if len(ends):
+            t = int(ends[0])
             succ.append(bool(success[b, t]))
-            rets.append(float(reward[b, start : t + 1].sum()))
-            lens.append(int(t + 1 - start))
-            start = t + 1
+            rets.append(float(reward[b, : t + 1].sum()))
+            lens.append(t + 1)
     return {"success": succ, "returns": rets, "lengths": lens}
 
 

@@ -147,3 +147,22 @@ def test_checkpoints_from_before_a_new_setting_still_resume(tmp_path):
         del ckpt["train_config"][key]  # as written before these settings existed
     torch.save(ckpt, tmp_path / "checkpoint.pt")
     assert Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False).iteration == 1
+
+
+def test_episode_stats_count_each_rows_first_episode_only():
+    """A second episode in a row fits the batch only when short (mostly a success): counting it
+    biases the training success upward, so only the first episode of each row counts."""
+    from tensordict import TensorDict
+
+    from occrl.training import episode_stats
+
+    T = 10
+    done = torch.zeros(3, T, 1, dtype=torch.bool)
+    success = torch.zeros(3, T, 1, dtype=torch.bool)
+    done[0, 9] = True  # row 0: a failure that ran to the end of the batch
+    done[1, 3] = success[1, 3] = True  # row 1: a quick success, then another one
+    done[1, 6] = success[1, 6] = True
+    # row 2: still running at the end of the batch
+    data = TensorDict({"next": {"done": done, "success": success, "reward": -torch.ones(3, T, 1)}}, batch_size=[3, T])
+    stats = episode_stats(data)
+    assert stats == {"success": [False, True], "returns": [-10.0, -4.0], "lengths": [10, 4]}
