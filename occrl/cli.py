@@ -28,16 +28,9 @@ def _gl_available() -> bool:
 
 
 def _weights_file(value: str | None) -> str | None:
-    """``--weights``: a weights file, or the name of a shipped network (e.g. ``occnet-ei``) turned
-    into its file inside the package; anything else is left for the loader to refuse."""
-    if value is None or Path(value).exists():
-        return value
-    from occrl.pretrained import pretrained_path
+    from occrl.pretrained import weights_file
 
-    try:
-        return str(pretrained_path(value))
-    except ValueError:  # not a shipped name either
-        return value
+    return weights_file(value)
 
 
 def _demo(args: argparse.Namespace) -> int:

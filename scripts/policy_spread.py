@@ -22,7 +22,7 @@ from torchrl.modules import set_recurrent_mode
 from occrl.envs import world_constants as C
 from occrl.eval.methods import make_method
 from occrl.eval.runner import seeded_task_env, task_scenes
-from occrl.pretrained import load_pretrained
+from occrl.pretrained import load_pretrained, weights_file
 from occrl.training import load_weights
 
 SPREAD_SEED_BASE = 50_000_000
@@ -30,10 +30,11 @@ SPREAD_SEED_BASE = 50_000_000
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--weights", default=None, help="network weights (default: the shipped occnet)")
+    parser.add_argument("--weights", default=None, help="weights file or shipped network name (default: occnet)")
     parser.add_argument("--tasks", type=int, default=16, help="tasks per stage")
     args = parser.parse_args()
 
+    args.weights = weights_file(args.weights)
     method = make_method("stochastic-gen", args.weights)
     net = load_weights(args.weights) if args.weights else load_pretrained("occnet")
     net.eval()

@@ -20,7 +20,7 @@ from torchrl.envs.utils import ExplorationType, set_exploration_type
 from occrl.envs import world_constants as C
 from occrl.eval.methods import make_method
 from occrl.eval.runner import seeded_task_env, task_scenes
-from occrl.pretrained import pretrained_path
+from occrl.pretrained import weights_file
 from occrl.training import episode_stats
 
 BIAS_SEED_BASE = 60_000_000
@@ -33,7 +33,7 @@ def main() -> None:
     parser.add_argument("--envs", type=int, default=128)
     args = parser.parse_args()
 
-    weights = args.weights if args.weights.endswith(".pt") else str(pretrained_path(args.weights))
+    weights = weights_file(args.weights)
     method = make_method("stochastic-gen", weights)
     seeds = list(range(BIAS_SEED_BASE, BIAS_SEED_BASE + args.envs))
     env = seeded_task_env(method.policy, task_scenes(args.stage, seeds), seeds, 0.0, method.primers)

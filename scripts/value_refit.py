@@ -29,7 +29,7 @@ from torchrl.modules import set_recurrent_mode
 from occrl.envs import world_constants as C
 from occrl.eval.methods import make_method
 from occrl.eval.runner import seeded_task_env, task_scenes
-from occrl.pretrained import load_pretrained
+from occrl.pretrained import load_pretrained, weights_file
 from occrl.training import load_weights, save_weights
 
 FIT_SEED_BASE = 40_000_000
@@ -92,13 +92,14 @@ def report(head, episodes: list[dict], ys: list[torch.Tensor], label: str) -> No
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--weights", default=None, help="network to start from (default: the shipped occnet)")
+    parser.add_argument("--weights", default=None, help="weights file or shipped network name to start from (default: occnet)")
     parser.add_argument("--episodes-per-stage", type=int, default=512)
     parser.add_argument("--rounds", type=int, default=4)
     parser.add_argument("--epochs", type=int, default=15, help="passes over the data per round")
     parser.add_argument("--out", required=True, help="weights file of the network with the refitted value head")
     args = parser.parse_args()
 
+    args.weights = weights_file(args.weights)
     torch.manual_seed(0)
     episodes = collect(args.weights, args.episodes_per_stage)
     order = np.random.default_rng(0).permutation(len(episodes))

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from occrl.training.checkpoint import load_weights
 
-__all__ = ["load_pretrained", "available", "model_card", "pretrained_path"]
+__all__ = ["load_pretrained", "available", "model_card", "pretrained_path", "weights_file"]
 
 _DIR = Path(__file__).resolve().parent
 _FILES = {"occnet": "occnet.pt", "occnet-noheatmap": "occnet-noheatmap.pt", "occnet-ei": "occnet-ei.pt"}
@@ -84,3 +84,20 @@ def pretrained_path(name: str) -> Path:
     if not path.is_file():
         raise FileNotFoundError(f"{path} is missing: this installation has no weights for {name!r} (shipped: {available()})")
     return path
+
+
+def weights_file(value: str | Path | None) -> str | None:
+    """What a ``--weights`` option names: an existing weights file as is, a shipped network's
+    name as its file in the package; anything else as is (for the loader to refuse).
+
+    Examples:
+        >>> from occrl.pretrained import weights_file
+        >>> weights_file("occnet-ei").endswith("occnet-ei.pt"), weights_file(None), weights_file("nowhere.pt")
+        (True, None, 'nowhere.pt')
+    """
+    if value is None or Path(value).exists():
+        return None if value is None else str(value)
+    try:
+        return str(pretrained_path(str(value)))
+    except ValueError:  # not a shipped name either
+        return str(value)

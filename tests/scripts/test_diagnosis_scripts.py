@@ -1,0 +1,37 @@
+"""The analysis scripts behind the README's "Why stage 2 stops here" run and report what they say."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _run(*args: str) -> str:
+    return subprocess.run([sys.executable, *args], capture_output=True, text=True, check=True, cwd=ROOT).stdout
+
+
+def _result(path: Path, method: str, stage: int, outcomes: list[bool]) -> Path:
+    episodes = [{"seed": 10_000_000 + i, "objects": 5, "success": ok, "dropped": False, "actions": 20 if ok else 50, "seconds": 1.0}
+                for i, ok in enumerate(outcomes)]
+    path.write_text(json.dumps({"method": method, "network": "occnet", "stage": stage, "objects": None, "noise": 0.0, "world": "pymunk",
+                                "first_seed": 10_000_000, "tasks": len(outcomes), "success_rate": sum(outcomes) / len(outcomes),
+                                "episodes": episodes}))
+    return path
+
+
+def test_stage_ceiling_is_the_union_of_the_runs(tmp_path):
+    a = _result(tmp_path / "a.json", "hybrid-4x4", 2, [True, False, False, False])
+    b = _result(tmp_path / "b.json", "scripted", 2, [False, True, False, False])
+    out = _run("scripts/stage_ceiling.py", str(a), str(b), "--tasks", "4")
+    assert "stage 2: 2 runs on the same 4 tasks" in out
+    assert "solved by at least one run: 50.0%; never solved: 2 tasks" in out
+    assert "never solved: 10000002 10000003" in out
+
+
+def test_failure_categories_replays_a_failed_scripted_episode(tmp_path):
+    # one real stage-1 task, recorded as failed so that the script replays it
+    path = _result(tmp_path / "r.json", "scripted", 1, [False])
+    out = _run("scripts/failure_categories.py", str(path))
+    assert "seed 10000000:" in out and "scripted stage 1: 1 failures replayed" in out
