@@ -35,3 +35,8 @@ def test_failure_categories_replays_a_failed_scripted_episode(tmp_path):
     path = _result(tmp_path / "r.json", "scripted", 1, [False])
     out = _run("scripts/failure_categories.py", str(path))
     assert "seed 10000000:" in out and "scripted stage 1: 1 failures replayed" in out
+
+
+def test_planner_decisions_prints_every_decision():
+    out = _run("scripts/planner_decisions.py", "--method", "hybrid-2x2", "--stage", "1", "--seed", "3", "--steps", "2")
+    assert out.count("step ") == 2 and out.count("    root 0: returns") == 2
