@@ -122,6 +122,8 @@ def _train(args: argparse.Namespace) -> int:
         overrides["start_stage"] = args.start_stage
     if args.replay_stage_workers is not None:
         overrides["replay_stage_workers"] = args.replay_stage_workers
+    if args.promotion_eval_tasks is not None:
+        overrides["promotion_eval_tasks"] = args.promotion_eval_tasks
     if args.imitation_teacher:
         overrides["imitation_teacher"] = args.imitation_teacher
     config = get_train_config(args.preset, **overrides)
@@ -356,6 +358,9 @@ def main(argv: list[str] | None = None) -> int:
                         "planner on the current network (expert iteration)")
     t.add_argument("--start-stage", type=int, choices=[1, 2, 3], default=None,
                    help="curriculum stage of a new run (e.g. 2 when continuing a net that passed stage 1)")
+    t.add_argument("--promotion-eval-tasks", type=int, default=None,
+                   help="validation tasks of the hybrid promotion check (presets: 30; its 95 %% interval is about +-15 points, "
+                        "100 tasks about +-8)")
     t.add_argument("--replay-stage-workers", type=int, default=None,
                    help="collector workers that keep collecting the previous stage after a promotion (or below --start-stage)")
     t.add_argument("--init-weights", default=None,

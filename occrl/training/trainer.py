@@ -157,6 +157,8 @@ class Trainer:
                  max_worker_restarts: int = 2, init_weights: str | Path | None = None) -> None:
         if config.promotion not in ("learner", "hybrid"):
             raise ValueError(f"promotion must be 'learner' or 'hybrid', got {config.promotion!r}")
+        if config.promotion_eval_tasks < 1:
+            raise ValueError(f"promotion_eval_tasks must be >= 1, got {config.promotion_eval_tasks}")
         if config.replay_stage_workers < 0:
             raise ValueError(f"replay_stage_workers must be >= 0, got {config.replay_stage_workers}")
         if config.replay_stage_workers and (config.collector == "single" or config.replay_stage_workers >= config.workers):

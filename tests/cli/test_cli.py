@@ -24,6 +24,8 @@ def test_bad_input_is_an_error_message_not_a_traceback(tmp_path, capsys):
     assert "no checkpoint" in capsys.readouterr().err
     assert main(["train", "--preset", "tiny", "--replay-stage-workers", "-1", "--run-dir", str(tmp_path / "run")]) == 2
     assert "replay_stage_workers must be >= 0" in capsys.readouterr().err
+    assert main(["train", "--preset", "tiny", "--promotion-eval-tasks", "0", "--run-dir", str(tmp_path / "run")]) == 2
+    assert "promotion_eval_tasks must be >= 1" in capsys.readouterr().err
 
 
 def test_demo_writes_summary_gif_and_strip(tmp_path):
