@@ -23,12 +23,9 @@ from collections import Counter
 from pathlib import Path
 
 import numpy as np
-import torch
-from torchrl.envs.utils import ExplorationType, set_exploration_type
 
-from occrl.envs import world_constants as C
 from occrl.eval.methods import make_method
-from occrl.eval.runner import seeded_task_env, task_scenes
+from occrl.eval.runner import rollout_tasks
 
 
 def categorise(td) -> dict:
@@ -66,10 +63,7 @@ def main() -> None:
     counts: Counter = Counter()
     outside = []
     for seed in failed:
-        env = seeded_task_env(method.policy, task_scenes(d["stage"], [seed]), [seed], d["noise"], method.primers)
-        with torch.no_grad(), set_exploration_type(method.exploration):
-            td = env.rollout(C.MAX_EPISODE_STEPS, method.policy, break_when_any_done=False)
-        facts = categorise(td)
+        facts = categorise(rollout_tasks(method, d["stage"], [seed], d["noise"]))
         counts[facts["category"]] += 1
         outside.append(facts["outside_share"])
         print(f"seed {seed}: {facts['category']:22s} first seen at step {facts['first_detected']}, seen on "

@@ -13,11 +13,9 @@ from __future__ import annotations
 import argparse
 
 import numpy as np
-import torch
-from torchrl.envs.utils import ExplorationType, set_exploration_type
 
 from occrl.eval.methods import make_method
-from occrl.eval.runner import seeded_task_env, task_scenes
+from occrl.eval.runner import rollout_tasks
 from occrl.pretrained import weights_file
 
 
@@ -31,9 +29,7 @@ def main() -> None:
     args = parser.parse_args()
 
     method = make_method(args.method, weights_file(args.weights))
-    env = seeded_task_env(method.policy, task_scenes(args.stage, [args.seed]), [args.seed], 0.0, method.primers)
-    with torch.no_grad(), set_exploration_type(ExplorationType.RANDOM):
-        td = env.rollout(args.steps, method.policy, break_when_any_done=False)
+    td = rollout_tasks(method, args.stage, [args.seed], steps=args.steps)
     np.set_printoptions(precision=1, suppress=True)
     for t, decision in enumerate(method.policy.decisions):
         result = decision.result

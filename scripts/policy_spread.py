@@ -16,14 +16,11 @@ import argparse
 
 import numpy as np
 import torch
-from torchrl.envs.utils import ExplorationType, set_exploration_type
 from torchrl.modules import set_recurrent_mode
 
-from occrl.envs import world_constants as C
 from occrl.eval.methods import make_method
-from occrl.eval.runner import seeded_task_env, task_scenes
-from occrl.pretrained import load_pretrained, weights_file
-from occrl.training import load_weights
+from occrl.eval.runner import rollout_tasks
+from occrl.pretrained import weights_file
 
 SPREAD_SEED_BASE = 50_000_000
 
@@ -36,17 +33,14 @@ def main() -> None:
 
     args.weights = weights_file(args.weights)
     method = make_method("stochastic-gen", args.weights)
-    net = load_weights(args.weights) if args.weights else load_pretrained("occnet")
-    net.eval()
+    net = method.policy.net  # the network the sampled policy runs
     head = net.actor.module[0]  # writes "loc" and "scale" from "belief"
     print(f"network {args.weights or 'occnet'}: policy standard deviation (forward, lateral, rotation, gripper)")
     for stage in (1, 2, 3):
         seeds = list(range(SPREAD_SEED_BASE, SPREAD_SEED_BASE + args.tasks))
-        env = seeded_task_env(method.policy, task_scenes(stage, seeds), seeds, 0.0, method.primers)
-        with torch.no_grad(), set_exploration_type(ExplorationType.RANDOM):
-            td = env.rollout(C.MAX_EPISODE_STEPS, method.policy, break_when_any_done=False)
-            with set_recurrent_mode(True):
-                out = head(net.trunk(td.select("pixels", "is_init").copy()))
+        td = rollout_tasks(method, stage, seeds)
+        with torch.no_grad(), set_recurrent_mode(True):
+            out = head(net.trunk(td.select("pixels", "is_init").copy()))
         done = td["next", "done"][..., 0]
         alive = (done.cumsum(1) - done.long()) == 0  # frames up to and including each episode's last
         scale = out["scale"][alive].numpy()

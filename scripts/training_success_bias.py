@@ -14,12 +14,10 @@ from __future__ import annotations
 import argparse
 
 import numpy as np
-import torch
-from torchrl.envs.utils import ExplorationType, set_exploration_type
 
 from occrl.envs import world_constants as C
 from occrl.eval.methods import make_method
-from occrl.eval.runner import seeded_task_env, task_scenes
+from occrl.eval.runner import rollout_tasks
 from occrl.pretrained import weights_file
 from occrl.training import episode_stats
 
@@ -36,9 +34,7 @@ def main() -> None:
     weights = weights_file(args.weights)
     method = make_method("stochastic-gen", weights)
     seeds = list(range(BIAS_SEED_BASE, BIAS_SEED_BASE + args.envs))
-    env = seeded_task_env(method.policy, task_scenes(args.stage, seeds), seeds, 0.0, method.primers)
-    with torch.no_grad(), set_exploration_type(ExplorationType.RANDOM):
-        data = env.rollout(C.MAX_EPISODE_STEPS, method.policy, break_when_any_done=False)
+    data = rollout_tasks(method, args.stage, seeds)
     done = data.get(("next", "done")).squeeze(-1).numpy()
     success = data.get(("next", "success")).squeeze(-1).numpy()
     every = [bool(success[b, t]) for b in range(done.shape[0]) for t in np.flatnonzero(done[b])]

@@ -23,12 +23,11 @@ import time
 import numpy as np
 import torch
 from tensordict import TensorDict
-from torchrl.envs.utils import ExplorationType, set_exploration_type
 from torchrl.modules import set_recurrent_mode
 
 from occrl.envs import world_constants as C
 from occrl.eval.methods import make_method
-from occrl.eval.runner import seeded_task_env, task_scenes
+from occrl.eval.runner import rollout_tasks
 from occrl.pretrained import load_pretrained, weights_file
 from occrl.training import load_weights, save_weights
 
@@ -38,19 +37,16 @@ FIT_SEED_BASE = 40_000_000
 def collect(weights: str | None, per_stage: int, batch: int = 64) -> list[dict]:
     """The stochastic policy's episodes: beliefs, rewards, and whether each ended by termination."""
     method = make_method("stochastic-gen", weights)
-    net = load_weights(weights) if weights else load_pretrained("occnet")
-    net.eval()
+    net = method.policy.net  # the network the sampled policy runs
     episodes = []
     start_time = time.time()
     for stage in (1, 2, 3):
         for start in range(0, per_stage, batch):
             first = FIT_SEED_BASE + stage * 100_000 + start
             seeds = list(range(first, first + min(batch, per_stage - start)))
-            env = seeded_task_env(method.policy, task_scenes(stage, seeds), seeds, 0.0, method.primers)
-            with torch.no_grad(), set_exploration_type(ExplorationType.RANDOM):
-                td = env.rollout(C.MAX_EPISODE_STEPS, method.policy, break_when_any_done=False)
-                with set_recurrent_mode(True):
-                    belief = net.trunk(td.select("pixels", "is_init").copy()).get("belief")
+            td = rollout_tasks(method, stage, seeds)
+            with torch.no_grad(), set_recurrent_mode(True):
+                belief = net.trunk(td.select("pixels", "is_init").copy()).get("belief")
             reward = td["next", "reward"][..., 0]
             done = td["next", "done"][..., 0]
             terminated = td["next", "terminated"][..., 0]

@@ -16,12 +16,13 @@ from typing import Callable, Sequence
 
 import numpy as np
 import torch
+from tensordict import TensorDictBase
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
 from occrl.envs import Scene, make_env
 from occrl.envs import world_constants as C
 
-__all__ = ["EpisodeResult", "run_episodes", "run_tasks", "summarize", "task_scenes", "task_object_count", "wilson_interval",
+__all__ = ["EpisodeResult", "rollout_tasks", "run_episodes", "run_tasks", "summarize", "task_scenes", "task_object_count", "wilson_interval",
            "EVAL_SEED_BASE"]
 
 logger = logging.getLogger(__name__)
@@ -128,6 +129,23 @@ def seeded_task_env(policy: Callable, scenes: Sequence[Scene], seeds: Sequence[i
     elif hasattr(policy, "reseed"):
         policy.reseed(int(seeds[0]))
     return env
+
+
+def rollout_tasks(method, stage: int, seeds: Sequence[int], noise: float = 0.0, steps: int = C.MAX_EPISODE_STEPS) -> TensorDictBase:
+    """One batch of ``method`` (a :class:`~occrl.eval.methods.Method`) on the stage's tasks of
+    ``seeds``, with the full [len(seeds), steps] rollout (privileged keys included) for analysis;
+    the same episodes :func:`run_episodes` scores. A world that finishes starts a new episode.
+
+    Examples:
+        >>> from occrl.eval.methods import make_method
+        >>> from occrl.eval.runner import rollout_tasks
+        >>> td = rollout_tasks(make_method("scripted"), 1, [3, 4], steps=5)
+        >>> td.batch_size, ("privileged", "target_pose") in td.keys(True)
+        (torch.Size([2, 5]), True)
+    """
+    env = seeded_task_env(method.policy, task_scenes(stage, seeds), seeds, noise, method.primers)
+    with torch.no_grad(), set_exploration_type(method.exploration):
+        return env.rollout(steps, method.policy, break_when_any_done=False)
 
 
 def episode_end(done: np.ndarray) -> int:

@@ -103,22 +103,21 @@ class TrainConfig:
         return cls(**d)
 
 
-# What trains on this project's 2-core CPU machines: the paper's network and loss, Adam at a
-# higher learning rate, two epochs per batch, two collector processes, and a DAgger warm
-# start on the scripted retriever before PPO (see docs/training.md).
+# What every CPU preset shares on this project's 2-core machines: Adam, two epochs per batch,
+# two collector processes of 32 envs, the heat-map loss on a random quarter of the frames.
+_CPU_MACHINE = dict(optimizer="adam", epochs=2, collector="multi", num_envs=32, heatmap_fraction=0.25)
+
+# What trains on these machines: the paper's network and loss, Adam at a higher learning rate,
+# and a DAgger warm start on the scripted retriever before PPO (see docs/decisions.md).
 _CPU = TrainConfig(
     preset="cpu",
-    optimizer="adam",
+    **_CPU_MACHINE,
     lr=3e-4,
-    epochs=2,
-    collector="multi",
-    num_envs=32,
     imitation_iters=400,
     imitation_beta_iters=50,
     imitation_beta_min=0.3,
     imitation_buffer_iters=16,
     imitation_updates=16,
-    heatmap_fraction=0.25,
     batch_norm_frames=400,
 )
 
@@ -137,15 +136,11 @@ TRAIN_PRESETS: dict[str, TrainConfig] = {
     # degraded (scripts/ppo_finetune_ablation.py; docs/decisions.md).
     "cpu-finetune": TrainConfig(
         preset="cpu-finetune",
-        optimizer="adam",
+        **_CPU_MACHINE,
         lr=1e-5,
-        epochs=2,
-        collector="multi",
-        num_envs=32,
         entropy_coeff=0.0,
         critic_warmup_iters=10,
         target_kl=0.02,
-        heatmap_fraction=0.25,
         batch_norm_frames=0,
         promotion="hybrid",
     ),
