@@ -1,5 +1,6 @@
 """Shelf worlds, perception and TorchRL environments."""
 
+from occrl.envs.physics_settings import DEFAULT_PHYSICS, LEGACY_PHYSICS, PhysicsSettings
 from occrl.envs.perception import detected_polygons, observation_from_detections
 from occrl.envs.pipeline import make_env, observation_transforms
 from occrl.envs.scene import STAGES, Scene, SceneObject
@@ -13,6 +14,9 @@ __all__ = [
     "STAGES",
     "ShelfWorld",
     "StepOutcome",
+    "PhysicsSettings",
+    "DEFAULT_PHYSICS",
+    "LEGACY_PHYSICS",
     "ShelfEnv",
     "OcclusionRender",
     "RobotCentricCrop",

@@ -20,6 +20,7 @@ __all__ = [
     "transform_polygons",
     "polygons_overlap",
     "point_in_convex_polygon",
+    "clip_to_band",
 ]
 
 
@@ -200,3 +201,34 @@ def point_in_convex_polygon(points: np.ndarray, vertices: np.ndarray) -> np.ndar
     p = np.asarray(points, dtype=float)[..., None, :] - v  # (..., n, 2)
     cross = e[:, 0] * p[..., 1] - e[:, 1] * p[..., 0]
     return np.all(cross >= 0.0, axis=-1)
+
+
+def clip_to_band(vertices: np.ndarray, y0: float, y1: float) -> np.ndarray:
+    """The part of a convex polygon with ``y0 <= y <= y1`` (Sutherland-Hodgman on two lines);
+    an empty ``(0, 2)`` array when they do not meet.
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.geometry import clip_to_band
+        >>> square = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=float)
+        >>> sorted(clip_to_band(square, 0.25, 0.5).tolist())
+        [[0.0, 0.25], [0.0, 0.5], [1.0, 0.25], [1.0, 0.5]]
+        >>> clip_to_band(square, 2.0, 3.0).shape
+        (0, 2)
+    """
+    pts = [tuple(p) for p in np.asarray(vertices, dtype=float)]
+    for sign, bound in ((1.0, y0), (-1.0, -y1)):  # keep sign * y >= bound
+        out = []
+        n = len(pts)
+        for k in range(n):
+            p, q = pts[k], pts[(k + 1) % n]
+            dp, dq = sign * p[1] - bound, sign * q[1] - bound
+            if dp >= 0.0:
+                out.append(p)
+            if (dp >= 0.0) != (dq >= 0.0):
+                t = dp / (dp - dq)
+                out.append((p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1])))
+        pts = out
+        if not pts:
+            break
+    return np.array(pts, dtype=float).reshape(-1, 2)

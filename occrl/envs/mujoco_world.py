@@ -18,8 +18,9 @@ import numpy as np
 from occrl.envs import world_constants as C
 from occrl.envs.mujoco_camera import VISIBLE_GROUPS, CameraConfig, close_renderer, new_renderer, prism_pixel_counts, require_mujoco
 from occrl.envs.mujoco_model import FINGER_CLOSED_TARGET, OBJECT_HEIGHT_RANGE, TIMESTEP, build_mjcf, type_height
+from occrl.envs.physics_settings import INVALID_PENETRATION
 from occrl.envs.scene import Scene
-from occrl.envs.world import StepOutcome
+from occrl.envs.world import StepOutcome, beyond_walls
 
 __all__ = ["MujocoWorld", "FINGER_TIME", "SETTLE_TIME"]
 
@@ -89,6 +90,9 @@ class MujocoWorld:
         self._hand_q = m.jnt_qposadr[[name(OBJ.mjOBJ_JOINT, j) for j in ("hand_x", "hand_y", "hand_th")]]
         self._finger_q = m.jnt_qposadr[[name(OBJ.mjOBJ_JOINT, f"finger_{s}") for s in ("left", "right")]]
         self._finger_geoms = {name(OBJ.mjOBJ_GEOM, f"finger_{s}") for s in ("left", "right")}
+        # contacts with these carry the objects' weight: their depth is MuJoCo's soft support, not
+        # an overlap of two solids in the plane
+        self._support_geoms = np.array([name(OBJ.mjOBJ_GEOM, g) for g in ("ground", "floor")], dtype=np.int64)
         self._cam = name(OBJ.mjOBJ_CAMERA, "wrist")
         self.geom_slot = np.full(m.ngeom + 1, -1, dtype=np.int64)  # last entry: "no hit" (-1 ids)
         self.geom_slot[self._obj_geom] = np.arange(self.num_objects)
@@ -103,6 +107,8 @@ class MujocoWorld:
         self._ray_dist = np.empty(camera.height * camera.width, dtype=np.float64)
 
         self.closed = False
+        self.penetration = 0.0
+        self.crossed_wall = False
         gx, gy, gth = scene.gripper_pose
         d.qpos[self._hand_q] = (gx, gy, gth)
         d.qpos[self._finger_q] = C.GRIPPER_STROKE / 2
@@ -203,7 +209,24 @@ class MujocoWorld:
             mj.mj_step(m, d)
         mj.mj_step(m, d, int(round(SETTLE_TIME / TIMESTEP)))
         mj.mj_forward(m, d)  # positions, contacts and camera of the final state
+        self.penetration, self.crossed_wall = self._measure_validity()
         return self._outcome()
+
+    def physically_valid(self, max_penetration: float = INVALID_PENETRATION) -> bool:
+        """As :meth:`ShelfWorld.physically_valid`: no overlap deeper than ``max_penetration`` (m)
+        between two solids (objects, gripper, walls) and no object centroid beyond a wall."""
+        return self.penetration <= max_penetration and not self.crossed_wall
+
+    def _measure_validity(self) -> tuple[float, bool]:
+        d = self.data
+        n = d.ncon
+        deepest = 0.0
+        if n:
+            geom1, geom2, dist = d.contact.geom1[:n], d.contact.geom2[:n], d.contact.dist[:n]
+            solid = ~np.isin(geom1, self._support_geoms) & ~np.isin(geom2, self._support_geoms)
+            if solid.any():
+                deepest = max(0.0, float(-dist[solid].min()))
+        return deepest, beyond_walls(self.object_poses())
 
     def _outcome(self) -> StepOutcome:
         poses = self.object_poses()

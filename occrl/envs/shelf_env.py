@@ -12,6 +12,7 @@ from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import EnvBase
 
 from occrl.envs import world_constants as C
+from occrl.envs.physics_settings import DEFAULT_PHYSICS, PhysicsSettings
 from occrl.envs.scene import STAGES, Scene
 from occrl.envs.visibility import detect, visible_fractions
 from occrl.envs.world import ShelfWorld, wall_polygons
@@ -67,6 +68,10 @@ class ShelfEnv(EnvBase):
         is filled only while its object is more than 50 % visible from the camera; undetected
         slots are all zero. ``"success"`` and ``"dropped"`` flag how an episode ended.
         Ground truth for losses and analysis lives under ``"privileged"``; no policy reads it.
+        Among it, the physics' own health: ``("privileged", "penetration")``, the deepest
+        overlap (m) between two bodies or a body and a wall after the last action, and
+        ``("privileged", "physics_invalid")``, set for the rest of the episode once a state was
+        physically invalid (an overlap over 5 mm or an object beyond a wall; a warning is logged).
 
     Rewards:
         -1 per action; -50 more when an object leaves the shelf.
@@ -90,6 +95,8 @@ class ShelfEnv(EnvBase):
         scenes: reset to these scenes in turn instead of sampling.
         num_objects: fixed object count for sampled scenes (overrides the stage's range).
         max_steps: truncation horizon.
+        physics: integration settings of the pymunk worlds (``occrl.envs.LEGACY_PHYSICS``
+            reproduces occrl 0.1.0).
 
     Examples:
         >>> from occrl.envs import ShelfEnv
@@ -111,6 +118,7 @@ class ShelfEnv(EnvBase):
         num_objects: int | None = None,
         max_steps: int = C.MAX_EPISODE_STEPS,
         device: str | torch.device = "cpu",
+        physics: PhysicsSettings = DEFAULT_PHYSICS,
     ) -> None:
         if isinstance(batch_size, int):
             batch_size = (batch_size,)
@@ -121,6 +129,8 @@ class ShelfEnv(EnvBase):
             raise ValueError(f"stage must be one of {sorted(STAGES)}, got {stage!r}")
         if not 0.0 <= noise <= 1.0:
             raise ValueError(f"noise must be in [0, 1] (the paper uses 0 to 0.25), got {noise}")
+        if not isinstance(physics, PhysicsSettings):
+            raise TypeError(f"physics must be an occrl.envs.PhysicsSettings, got {type(physics).__name__}")
         if scenes is not None:
             scenes = list(scenes)
             if not scenes or not all(isinstance(s, Scene) for s in scenes):
@@ -132,9 +142,11 @@ class ShelfEnv(EnvBase):
         self.scenes = scenes
         self.num_objects = num_objects
         self.max_steps = int(max_steps)
+        self.physics = physics
         self._scene_cursor = 0
         self.worlds: list[ShelfWorld | None] = [None] * self.num_worlds
         self._steps = np.zeros(self.num_worlds, dtype=np.int64)
+        self._invalid = np.zeros(self.num_worlds, dtype=bool)
         self._make_specs()
         if isinstance(seed, (list, tuple)):
             if len(seed) != self.num_worlds:
@@ -170,6 +182,8 @@ class ShelfEnv(EnvBase):
             target_slot=Categorical(N, shape=(*B, 1), dtype=torch.int64),
             target_pose=Unbounded(shape=(*B, 3), dtype=f32),
             target_held=Categorical(2, shape=(*B, 1), dtype=torch.bool),
+            penetration=Unbounded(shape=(*B, 1), dtype=f32),
+            physics_invalid=Categorical(2, shape=(*B, 1), dtype=torch.bool),
             shape=B,
         )
         self.observation_spec = Composite(
@@ -213,6 +227,7 @@ class ShelfEnv(EnvBase):
                 self._release_world(self.worlds[i])
             self.worlds[i] = self._new_world(i)
             self._steps[i] = 0
+            self._invalid[i] = False
         zeros = np.zeros(self.num_worlds, dtype=bool)
         out = self._observe(success=zeros, dropped=zeros)
         flags = torch.zeros((self.num_worlds, 1), dtype=torch.bool)
@@ -238,6 +253,12 @@ class ShelfEnv(EnvBase):
             reward[i] = outcome.reward
             success[i] = outcome.retrieved
             dropped[i] = bool(outcome.dropped)
+            if not self._invalid[i] and not world.physically_valid():
+                self._invalid[i] = True
+                logger.warning(
+                    "world %d reached a physically invalid state at action %d (penetration %.1f mm, object past a wall: %s)",
+                    i, self._steps[i] + 1, 1000 * world.penetration, world.crossed_wall,
+                )
         self._steps += 1
         terminated = success | dropped
         truncated = (self._steps >= self.max_steps) & ~terminated
@@ -256,7 +277,7 @@ class ShelfEnv(EnvBase):
     # A subclass executing the task in another simulator (MujocoShelfEnv) overrides these; its
     # worlds offer ShelfWorld's interface (step -> StepOutcome, poses, held, opening, closed, ...).
     def _new_world(self, i: int):
-        return ShelfWorld(self._next_scene(i), noise=self.noise, rng=self._rngs[i])
+        return ShelfWorld(self._next_scene(i), noise=self.noise, rng=self._rngs[i], physics=self.physics)
 
     def _release_world(self, world) -> None:
         """Free a world's resources before it is replaced."""
@@ -290,6 +311,7 @@ class ShelfEnv(EnvBase):
         target_slot = np.zeros((B, 1), np.int64)
         target_pose = np.zeros((B, 3), np.float32)
         target_held = np.zeros((B, 1), bool)
+        penetration = np.zeros((B, 1), np.float32)
         for i, w in enumerate(self.worlds):
             n = w.num_objects
             gp = w.gripper_pose()
@@ -316,6 +338,7 @@ class ShelfEnv(EnvBase):
             target_slot[i, 0] = t
             target_pose[i] = poses[t]
             target_held[i, 0] = w.held == t
+            penetration[i, 0] = w.penetration
         t = torch.from_numpy
         batch = self.batch_size
         out = TensorDict(
@@ -342,6 +365,8 @@ class ShelfEnv(EnvBase):
                         "target_slot": t(target_slot),
                         "target_pose": t(target_pose),
                         "target_held": t(target_held),
+                        "penetration": t(penetration),
+                        "physics_invalid": t(self._invalid.copy()).unsqueeze(-1),
                     },
                     batch_size=batch,
                 ),

@@ -19,7 +19,8 @@ Model (DESIGN section 3):
   about their nominal values (``noise`` level, DESIGN section 3).
 
 Determinism: every action starts from a *cold* solver. Chipmunk keeps hidden state between steps
-(cached contact impulses, joint impulses, shape hash ids), so resetting poses alone drifts. Before
+(cached contact impulses, joint impulses, shape hash ids, the bodies' position-correction
+velocities), so resetting poses alone drifts. Before
 each action the world removes its dynamic shapes and joints, resets the shape id counter and the
 previous time step, and adds fresh ones in a fixed order. The state is therefore exactly the small
 :meth:`ShelfWorld.snapshot`: poses, gripper opening, grasp and the noise generator.
@@ -34,19 +35,25 @@ from dataclasses import dataclass
 
 import numpy as np
 import pymunk
+import pymunk.batch
 from pymunk._chipmunk_cffi import lib as _cp
 
 from occrl.envs import world_constants as C
-from occrl.envs.geometry import convex_hull, polygon_area, polygons_overlap, transform_points, transform_polygons
+from occrl.envs.geometry import clip_to_band, convex_hull, polygon_area, polygon_centroid, polygons_overlap, transform_points, transform_polygons
+from occrl.envs.physics_settings import DEFAULT_PHYSICS, INVALID_PENETRATION, PhysicsSettings
 from occrl.envs.scene import Scene
 
-__all__ = ["ShelfWorld", "StepOutcome", "gripper_polygons", "wall_polygons", "inverse_pose", "grasp_candidate"]
+__all__ = ["ShelfWorld", "StepOutcome", "gripper_polygons", "wall_polygons", "inverse_pose", "grasp_candidate", "beyond_walls"]
 
 logger = logging.getLogger(__name__)
 
 _GRIPPER_GROUP = 1  # shapes in this group never collide with each other (gripper + held object)
 _IN_GRIPPER_GROUP = pymunk.ShapeFilter(group=_GRIPPER_GROUP)
 _NO_GROUP = pymunk.ShapeFilter()
+# fraction of a grasp joint's error left after one second (1 - 1e-4 corrected in 0.5 s)
+GRASP_ERROR_BIAS = 1e-8
+# contact depths of every touching pair after a step (arbiters no longer touching read 0)
+_CONTACT_DEPTHS = pymunk.batch.ArbiterFields.DISTANCE_1 | pymunk.batch.ArbiterFields.DISTANCE_2
 
 
 def gripper_polygons(opening: float) -> list[np.ndarray]:
@@ -84,8 +91,25 @@ def wall_polygons() -> list[np.ndarray]:
     ]
 
 
+def beyond_walls(poses: np.ndarray) -> bool:
+    """Whether a centroid of ``poses`` (n, 2 or 3) lies beyond the back wall, or beyond a side wall
+    level with the shelf (in front of the shelf, y < 0, an object is off it, not through a wall).
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.world import beyond_walls
+        >>> bool(beyond_walls(np.array([[0.0, 0.36, 0.0]]))), bool(beyond_walls(np.array([[0.3, -0.1, 0.0]])))
+        (True, False)
+    """
+    x, y = poses[:, 0], poses[:, 1]
+    return bool(np.any((y > C.SHELF_DEPTH) | ((y >= C.FRONT_EDGE_Y) & (np.abs(x) > C.SHELF_HALF_WIDTH))))
+
+
 def _box(x0: float, y0: float, x1: float, y1: float) -> np.ndarray:
     return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], dtype=float)
+
+
+_WALLS = wall_polygons()
 
 
 def _limited(constraint: pymunk.Constraint, max_bias: float, max_force: float) -> pymunk.Constraint:
@@ -126,10 +150,13 @@ def grasp_candidate(gripper_pose, opening: float, polygons: list[np.ndarray]) ->
         >>> grasp_candidate((0.0, 0.0, 0.0), 0.085, [box + [0.3, 0.0]])  # out of reach
         (None, {})
     """
+    if opening <= 1e-6:
+        return None, {}  # closed fingers hold nothing between them
     h = opening / 2.0
     band = transform_points(np.array([[-h, 0.0], [h, 0.0], [h, C.FINGER_LENGTH], [-h, C.FINGER_LENGTH]]), gripper_pose)
     inv = inverse_pose(gripper_pose)
-    touching = {i: transform_points(p, inv) for i, p in enumerate(polygons) if polygons_overlap(p, band)}
+    near = _near(polygons, band.mean(axis=0), math.hypot(h, C.FINGER_LENGTH / 2.0))
+    touching = {i: transform_points(p, inv) for i, p in enumerate(polygons) if near[i] and polygons_overlap(p, band)}
     if len(touching) == 1:
         (i, local), = touching.items()
         xmin, xmax = local[:, 0].min(), local[:, 0].max()
@@ -137,6 +164,17 @@ def grasp_candidate(gripper_pose, opening: float, polygons: list[np.ndarray]) ->
         if xmin < 0.0 < xmax and 0.0 <= cy <= C.FINGER_LENGTH and xmax - xmin <= opening:
             return i, touching
     return None, touching
+
+
+def _near(polygons: list[np.ndarray], centre: np.ndarray, radius: float) -> list[bool]:
+    """Whether each polygon's bounding circle reaches the circle (``centre``, ``radius``): a cheap
+    exact pre-test before the separating-axis test."""
+    out = []
+    for p in polygons:
+        c = p.mean(axis=0)
+        r = math.sqrt(float(((p - c) ** 2).sum(axis=1).max()))
+        out.append(math.hypot(c[0] - centre[0], c[1] - centre[1]) <= r + radius)
+    return out
 
 
 @dataclass(frozen=True)
@@ -168,6 +206,12 @@ class ShelfWorld:
         scene: the objects and the gripper's start pose.
         noise: physics/shape noise level (DESIGN: 0 to 0.25) applied before each action.
         rng: generator for the noise, the only randomness in the world.
+        physics: integration settings (step size, solver, finger model); the default holds
+            penetration <= 2 mm under hard pushing (docs/decisions.md, "Physics validity").
+
+    After each :meth:`step`, :attr:`penetration` is the deepest overlap (m) between any two
+    bodies or a body and a wall, and :attr:`crossed_wall` says whether an object's centroid is
+    beyond a wall; :meth:`physically_valid` combines both.
 
     Examples:
         >>> from occrl.envs import Scene, ShelfWorld
@@ -180,9 +224,14 @@ class ShelfWorld:
         True
     """
 
-    def __init__(self, scene: Scene, noise: float = 0.0, rng: np.random.Generator | None = None) -> None:
+    def __init__(
+        self, scene: Scene, noise: float = 0.0, rng: np.random.Generator | None = None, physics: PhysicsSettings = DEFAULT_PHYSICS
+    ) -> None:
         if not 0.0 <= noise <= 1.0:
             raise ValueError(f"noise level must be in [0, 1], got {noise}")
+        if not isinstance(physics, PhysicsSettings):
+            raise TypeError(f"physics must be an occrl.envs.PhysicsSettings, got {type(physics).__name__}")
+        self.physics = physics
         self.scene = scene
         self.noise = float(noise)
         self.rng = rng if rng is not None else np.random.default_rng(0)
@@ -201,24 +250,34 @@ class ShelfWorld:
         self.opening = C.GRIPPER_STROKE
         self.closed = False
         self.held: int | None = None
+        self.penetration = 0.0
+        self.crossed_wall = False
+        self._contact_buffer = pymunk.batch.Buffer()
         self._build(scene)
 
     # ------------------------------------------------------------------ construction
     def _build(self, scene: Scene) -> None:
         space = self.space = pymunk.Space()
         space.gravity = (0.0, 0.0)
-        space.iterations = 20
+        space.iterations = self.physics.iterations
+        if self.physics.collision_slop != space.collision_slop:
+            space.collision_slop = self.physics.collision_slop
+        if self.physics.collision_bias != space.collision_bias:
+            space.collision_bias = self.physics.collision_bias
+        self.wall_shapes = []
         for poly in wall_polygons():
             s = pymunk.Poly(space.static_body, poly.tolist())
             s.friction = C.NOMINAL_FRICTION
             space.add(s)
+            self.wall_shapes.append(s)
         self._shape_id_base = _cp.cpSpaceGetShapeIDCounter(space._space)
 
         self.control = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
-        self.gripper = pymunk.Body(mass=C.GRIPPER_MASS, moment=1.0)
+        mass = self.physics.gripper_mass
+        self.gripper = pymunk.Body(mass=mass, moment=1.0)
         polys = gripper_polygons(C.GRIPPER_STROKE)
         total_area = sum(polygon_area(p) for p in polys)
-        self.gripper.moment = sum(pymunk.moment_for_poly(C.GRIPPER_MASS * polygon_area(p) / total_area, p.tolist()) for p in polys)
+        self.gripper.moment = sum(pymunk.moment_for_poly(mass * polygon_area(p) / total_area, p.tolist()) for p in polys)
         self.gripper_shapes = []
         for poly in polys:
             s = pymunk.Poly(self.gripper, poly.tolist())
@@ -269,8 +328,9 @@ class ShelfWorld:
             space.remove(*self.gripper_shapes, *self.shapes, *self._constraints)
         _cp.cpSpaceSetShapeIDCounter(space._space, self._shape_id_base)
         static = space.static_body
-        drive = _limited(pymunk.PivotJoint(self.control, self.gripper, (0, 0), (0, 0)), C.GRIPPER_MAX_SPEED, C.GRIPPER_MAX_FORCE)
-        turn = _limited(pymunk.GearJoint(self.control, self.gripper, 0.0, 1.0), 10 * C.GRIPPER_MAX_SPEED, C.GRIPPER_MAX_TORQUE)
+        ps = self.physics
+        drive = _limited(pymunk.PivotJoint(self.control, self.gripper, (0, 0), (0, 0)), ps.gripper_max_speed, ps.gripper_max_force)
+        turn = _limited(pymunk.GearJoint(self.control, self.gripper, 0.0, 1.0), 10 * ps.gripper_max_speed, ps.gripper_max_torque)
         cons = [drive, turn]
         for i, body in enumerate(self.bodies):
             force = float(self.floor_force[i])
@@ -278,8 +338,17 @@ class ShelfWorld:
             cons.append(_limited(pymunk.GearJoint(static, body, 0.0, 1.0), 0.0, force * float(self.floor_arm[i])))
         if self.held is not None:
             body = self.bodies[self.held]
-            weld = pymunk.PivotJoint(self.gripper, body, self.gripper.world_to_local(body.position), (0, 0))
+            anchor = self.gripper.world_to_local(body.position)
+            if ps.finger_contact:  # the closed fingers draw the object to the centre between them
+                anchor = (anchor.x + self._centring_shift(self.held), anchor.y)
+            weld = pymunk.PivotJoint(self.gripper, body, anchor, (0, 0))
             lock = pymunk.GearJoint(self.gripper, body, body.angle - self.gripper.angle, 1.0)
+            if ps.finger_contact:  # centre within the action (pymunk's default corrects 96 % in 0.5 s)
+                _cp.cpConstraintSetErrorBias(weld._constraint, GRASP_ERROR_BIAS)
+                _cp.cpConstraintSetErrorBias(lock._constraint, GRASP_ERROR_BIAS)
+            if ps.grasp_max_force != math.inf:
+                _cp.cpConstraintSetMaxForce(weld._constraint, ps.grasp_max_force)
+                _cp.cpConstraintSetMaxForce(lock._constraint, ps.grasp_max_force * C.FINGER_LENGTH)
             cons += [weld, lock]
         if self._filtered != self.held:  # the held object does not collide with the gripper
             if self._filtered is not None:
@@ -292,6 +361,10 @@ class ShelfWorld:
         self._shapes_in_space = True
         _cp.cpSpaceSetCurrentTimeStep(space._space, 0.0)
         _cp.cpSpaceSetTimestamp(space._space, 0)
+        # Chipmunk carries each body's position-correction ("bias") velocity into the next step;
+        # a zero-length position update clears it without moving the body.
+        for body in (self.control, self.gripper, *self.bodies):
+            _cp.cpBodyUpdatePosition(body._body, 0.0)
 
     # ------------------------------------------------------------------ state
     def gripper_pose(self) -> np.ndarray:
@@ -367,14 +440,60 @@ class ShelfWorld:
         self.control.angle = th
         self.control.velocity = ((tx - x) / C.ACTION_DURATION, (ty - y) / C.ACTION_DURATION)
         self.control.angular_velocity = (tth - th) / C.ACTION_DURATION
-        dt = C.ACTION_DURATION / C.PHYSICS_SUBSTEPS
-        for _ in range(C.PHYSICS_SUBSTEPS):
-            self.space.step(dt)
+        ps = self.physics
+        dt = C.ACTION_DURATION / ps.substeps
+        fine = ps.contact_substeps
+        # Chipmunk's step called directly: pymunk's wrapper only adds bookkeeping for changes
+        # made during a step, and this world makes none.
+        space, step = self.space._space, _cp.cpSpaceStep
+        for _ in range(ps.substeps):
+            if fine > 1 and self._gripper_touches():
+                for _ in range(fine):
+                    step(space, dt / fine)
+            else:
+                step(space, dt)
         # Quasi-static: everything comes to rest between actions.
         for body in (self.control, self.gripper, *self.bodies):
             body.velocity = (0.0, 0.0)
             body.angular_velocity = 0.0
+        if ps.measure_validity:
+            self.penetration, self.crossed_wall = self._measure_validity()
+        else:
+            self.penetration, self.crossed_wall = math.nan, False
+        if not self.physically_valid():
+            logger.debug("physically invalid state: penetration %.4f m, object past a wall: %s", self.penetration, self.crossed_wall)
         return self._outcome()
+
+    # ------------------------------------------------------------------ validity
+    def physically_valid(self, max_penetration: float = INVALID_PENETRATION) -> bool:
+        """Whether the state after the last action is physically sound: no overlap deeper than
+        ``max_penetration`` (m) and no object centroid beyond a wall. True when the world's
+        settings do not measure (``PhysicsSettings.measure_validity``)."""
+        return not self.penetration > max_penetration and not self.crossed_wall
+
+    def _measure_validity(self) -> tuple[float, bool]:
+        """Deepest penetration (pymunk's contact depths between the simulated shapes: objects,
+        gripper, walls) and whether the area centroid of an object's simulated (noisy) shape lies
+        beyond a wall."""
+        buffer = self._contact_buffer
+        buffer.clear()
+        pymunk.batch.get_space_arbiters(self.space, _CONTACT_DEPTHS, buffer)
+        distance = np.frombuffer(buffer.float_buf())  # < 0: overlap; arbiters not touching read 0
+        deepest = max(0.0, -float(distance.min())) if distance.size else 0.0
+        # The body origin is the nominal centroid; only near a wall is the noisy shape's own
+        # centroid worth computing.
+        poses = self.object_poses()
+        near = (poses[:, 1] > C.SHELF_DEPTH - C.MAX_OBJECT_RADIUS) | (np.abs(poses[:, 0]) > C.SHELF_HALF_WIDTH - C.MAX_OBJECT_RADIUS)
+        if not near.any():
+            return deepest, False
+        polygons = self.simulated_polygons()
+        centroids = np.array([polygon_centroid(polygons[i]) for i in np.flatnonzero(near)])
+        return deepest, beyond_walls(centroids)
+
+    def _gripper_touches(self) -> bool:
+        touching = []
+        self.gripper.each_arbiter(touching.append)
+        return bool(touching)
 
     def _outcome(self) -> StepOutcome:
         poses = self.object_poses()
@@ -408,7 +527,45 @@ class ShelfWorld:
         elif not close and self.closed:
             self.closed = False
             self.held = None
-            self._set_opening(C.GRIPPER_STROKE)
+            if self.physics.finger_contact:
+                self._open_fingers()
+            else:
+                self._set_opening(C.GRIPPER_STROKE)
+        elif not close and self.physics.finger_contact and self.opening < C.GRIPPER_STROKE:
+            self._open_fingers()  # fingers stopped by contact earlier keep opening
+
+    def _open_fingers(self) -> None:
+        """Open towards the full stroke, symmetrically; the fingers stop where one of them first
+        touches an object or a wall (the simulated shapes), as they stop at contact when closing."""
+        pose = self.gripper_pose()
+        inv = inverse_pose(pose)
+        outer = self.opening / 2.0 + C.FINGER_WIDTH  # outer face of each finger, gripper frame
+        half = C.GRIPPER_STROKE / 2.0  # half the opening the fingers reach
+        shapes = [*self.simulated_polygons(), *_WALLS]
+        sweep_centre = transform_points(np.array([[0.0, C.FINGER_LENGTH / 2.0]]), pose)[0]
+        near = _near(shapes, sweep_centre, math.hypot(half + C.FINGER_WIDTH, C.FINGER_LENGTH / 2.0))
+        for local in (transform_points(p, inv) for p, n in zip(shapes, near) if n):
+            part = clip_to_band(local, 0.0, C.FINGER_LENGTH)
+            if len(part) == 0:
+                continue
+            for x in (part[:, 0], -part[:, 0]):  # right finger, then the left one mirrored
+                if x.max() <= outer:
+                    continue  # between or behind the fingers' outer faces: not in the way
+                half = min(half, max(x.min(), outer) - C.FINGER_WIDTH)
+        self._set_opening(2.0 * half)
+
+    def simulated_polygons(self) -> list[np.ndarray]:
+        """Each object's shape as simulated (with this action's noise) at its current pose."""
+        out = []
+        for body, shape in zip(self.bodies, self.shapes):
+            local = np.array([tuple(v) for v in shape.get_vertices()])
+            out.append(transform_points(local, (body.position.x, body.position.y, body.angle)))
+        return out
+
+    def _centring_shift(self, i: int) -> float:
+        """Sideways offset (gripper frame) that centres object ``i`` between the fingers."""
+        local = transform_points(self.object_world_polygons()[i], inverse_pose(self.gripper_pose()))
+        return -(local[:, 0].min() + local[:, 0].max()) / 2.0
 
     def _close_fingers(self) -> None:
         """Close until contact; grasp the object between the fingers if it straddles the axis."""
@@ -417,10 +574,11 @@ class ShelfWorld:
         if i is not None:
             local = touching[i]
             xmin, xmax = local[:, 0].min(), local[:, 0].max()
-            shift = -(xmin + xmax) / 2.0  # the closing fingers centre the object
-            c, s = math.cos(gpose[2]), math.sin(gpose[2])
-            body = self.bodies[i]
-            body.position = (body.position.x + c * shift, body.position.y + s * shift)
+            if not self.physics.finger_contact:  # occrl 0.1.0: the object jumps to the centre
+                shift = -(xmin + xmax) / 2.0
+                c, s = math.cos(gpose[2]), math.sin(gpose[2])
+                body = self.bodies[i]
+                body.position = (body.position.x + c * shift, body.position.y + s * shift)
             self._set_opening(xmax - xmin)
             self.held = i
             return

@@ -38,10 +38,10 @@ FINGER_WIDTH = 0.012
 FINGER_LENGTH = 0.045
 FOREARM_WIDTH = 0.07
 FOREARM_LENGTH = 0.25
-GRIPPER_MASS = 0.5  # kg, body driven through force-limited joints
+# force limits of the MuJoCo hand's servos; the pymunk gripper's mass and drive are integration
+# settings (occrl.envs.physics_settings)
 GRIPPER_MAX_FORCE = 20.0  # N
 GRIPPER_MAX_TORQUE = 2.0  # N m
-GRIPPER_MAX_SPEED = 0.5  # m/s, bias velocity of the driving joint
 
 # Reachable gripper poses (the arm's workspace in front of and inside the shelf).
 GRIPPER_X_LIMITS = (-0.40, 0.40)
@@ -57,8 +57,7 @@ ACTION_DIM = 4  # forward, lateral, rotation (gripper frame), gripper (> 0 close
 MAX_FORWARD = 0.05
 MAX_LATERAL = 0.05
 MAX_ROTATION = math.radians(15.0)
-ACTION_DURATION = 0.5  # s of simulated time per action
-PHYSICS_SUBSTEPS = 10
+ACTION_DURATION = 0.5  # s of simulated time per action (steps: occrl.envs.physics_settings)
 
 # --- task --------------------------------------------------------------------------------------
 STEP_REWARD = -1.0

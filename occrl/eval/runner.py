@@ -33,7 +33,10 @@ TIME_LIMIT_S = 120.0
 
 @dataclass
 class EpisodeResult:
-    """The outcome of one task: its seed and object count, success, a drop, actions and seconds.
+    """The outcome of one task: its seed and object count, success, a drop, actions and seconds,
+    and the physics' health over the episode: the deepest penetration (m) after any action and
+    whether a physically invalid state was reached (NaN / False where the world does not measure,
+    and in results written before occrl measured it).
 
     Examples:
         >>> from occrl.eval.runner import EpisodeResult
@@ -47,6 +50,8 @@ class EpisodeResult:
     dropped: bool
     actions: int
     seconds: float
+    max_penetration: float = math.nan
+    physics_invalid: bool = False
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -198,10 +203,15 @@ def run_episodes(
         done = td.get(("next", "done")).squeeze(-1).numpy()
         success = td.get(("next", "success")).squeeze(-1).numpy()
         dropped = td.get(("next", "dropped")).squeeze(-1).numpy()
+        penetration = td.get(("next", "privileged", "penetration")).squeeze(-1).numpy()
+        invalid = td.get(("next", "privileged", "physics_invalid")).squeeze(-1).numpy()
         for b, scene in enumerate(chunk):
             end = episode_end(done[b])
             ok = bool(success[b, end]) and end + 1 < C.MAX_EPISODE_STEPS + 1 and per_task < TIME_LIMIT_S
-            results.append(EpisodeResult(int(chunk_seeds[b]), len(scene), ok, bool(dropped[b, end]), end + 1, per_task))
+            deepest = float(np.max(penetration[b, : end + 1]))
+            results.append(
+                EpisodeResult(int(chunk_seeds[b]), len(scene), ok, bool(dropped[b, end]), end + 1, per_task, deepest, bool(invalid[b, end]))
+            )
     return results
 
 
@@ -224,6 +234,7 @@ def summarize(results: Sequence[EpisodeResult]) -> dict:
         "success_rate": k / n if n else float("nan"),
         "success_ci95": [lo, hi],
         "dropped": sum(r.dropped for r in results),
+        "physically_invalid": sum(r.physics_invalid for r in results),
         "mean_actions": float(np.mean([r.actions for r in results])) if n else float("nan"),
         "mean_seconds": float(np.mean([r.seconds for r in results])) if n else float("nan"),
     }

@@ -14,12 +14,15 @@ from tensordict import TensorDictBase
 
 from occrl.envs import world_constants as C
 from occrl.envs.geometry import polygons_overlap, transform_points
+from occrl.envs.physics_settings import DEFAULT_PHYSICS
 from occrl.envs.scene import Scene, SceneObject
 from occrl.envs.world import ShelfWorld, grasp_candidate, gripper_polygons, wall_polygons
 
 __all__ = ["RecreatedState", "recreate", "with_target", "make_world"]
 
 _WALLS = wall_polygons()
+# the planners' imagined worlds: the execution physics, without the validity measure
+PLANNING_PHYSICS = replace(DEFAULT_PHYSICS, measure_validity=False)
 
 
 @dataclass(frozen=True)
@@ -142,6 +145,8 @@ def with_target(state: RecreatedState, pose) -> RecreatedState:
 
 def make_world(state: RecreatedState) -> ShelfWorld:
     """A nominal (noise-free) pymunk world of a recreated state, gripper and grasp included.
+    It integrates as the execution world does (``DEFAULT_PHYSICS``) but skips the validity
+    measure, which no planner reads.
 
     Examples:
         >>> import numpy as np
@@ -152,7 +157,7 @@ def make_world(state: RecreatedState) -> ShelfWorld:
         >>> world.gripper_pose().round(3).tolist(), world.object_poses().round(3).tolist()
         ([0.0, -0.1, 0.0], [[-0.1, 0.2, 0.0]])
     """
-    world = ShelfWorld(Scene.unchecked(state.objects, state.gripper_pose))
+    world = ShelfWorld(Scene.unchecked(state.objects, state.gripper_pose), physics=PLANNING_PHYSICS)
     held = None
     if state.closed:
         held, _ = grasp_candidate(state.gripper_pose, state.opening + 2e-3, state.polygons())
