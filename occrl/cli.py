@@ -353,9 +353,10 @@ def main(argv: list[str] | None = None) -> int:
     t.add_argument("--no-heatmap", action="store_true", help="train the net without heat-map head (baselines)")
     t.add_argument("--promotion", choices=["learner", "hybrid"], default=None,
                    help="curriculum rule: the paper's hybrid 4x4 validation (needs the heat-map head) or the learner's own success")
-    t.add_argument("--imitation-teacher", choices=["scripted", "hybrid"], default=None,
-                   help="who labels the imitation phase: the privileged scripted retriever, or the hybrid 4x4 "
-                        "planner on the current network (expert iteration)")
+    t.add_argument("--imitation-teacher", choices=["scripted", "hybrid", "hybrid-acting"], default=None,
+                   help="who labels the imitation phase: the privileged scripted retriever, the hybrid 4x4 "
+                        "planner on the current network (expert iteration), or that planner acting and labelling "
+                        "(the value learns the planner's own returns; collector single)")
     t.add_argument("--start-stage", type=int, choices=[1, 2, 3], default=None,
                    help="curriculum stage of a new run (e.g. 2 when continuing a net that passed stage 1)")
     t.add_argument("--promotion-eval-tasks", type=int, default=None,

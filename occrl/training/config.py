@@ -56,7 +56,10 @@ class TrainConfig:
     imitation_min_scale: float = 0.1
     # who labels the learner's frames: "scripted" (the privileged scripted retriever) or "hybrid"
     # (the hybrid 4x4 planner on the current network, perception only; the learner then always
-    # acts, beta = 0 — expert iteration, beyond the paper; ~40 ms per label on one core)
+    # acts, beta = 0 — expert iteration, beyond the paper; ~40 ms per label on one core), or
+    # "hybrid-acting": the hybrid 4x4 planner on the current network acts in every episode and its
+    # choices are the labels, so the value head regresses on the returns the planner itself
+    # achieves (AlphaZero / MORE style; collector "single", the planner shares the live network)
     imitation_teacher: str = "scripted"
     imitation_buffer_iters: int = 8  # DAgger aggregates the labelled data of this many iterations
     imitation_updates: int = 0  # gradient steps per iteration on the aggregate (0 = epochs over the new batch)

@@ -32,6 +32,7 @@ from occrl.baselines.scripted import ScriptedRetriever
 from occrl.envs import make_env
 from occrl.modules import make_occnet
 from occrl.objectives import PPOHeatmapLoss, compute_advantages, heatmap_loss, imitation_nll
+from occrl.planners import HybridPlanner
 from occrl.training.checkpoint import load_checkpoint, load_weights, save_checkpoint, save_weights
 from occrl.training.config import TrainConfig
 from occrl.training.curriculum import Curriculum
@@ -48,6 +49,7 @@ WEIGHTS = "weights.pt"
 WARM_START_WEIGHTS = "weights_warmstart.pt"  # the network at the end of the DAgger warm start, before PPO
 VALIDATION_SEED_BASE = 20_000_000  # hybrid-promotion tasks (held-out evaluation starts at 10_000_000)
 METRICS = "metrics.jsonl"
+IMITATION_TEACHERS = ("scripted", "hybrid", "hybrid-acting")
 PPO_DIAGNOSTICS = ("kl_approx", "clip_fraction", "entropy")  # ClipPPOLoss outputs logged (mean over the minibatches seen)
 
 
@@ -164,10 +166,13 @@ class Trainer:
         if config.replay_stage_workers and (config.collector == "single" or config.replay_stage_workers >= config.workers):
             raise ValueError(f"replay_stage_workers={config.replay_stage_workers} needs collector 'multi' or 'ray' and "
                              f"fewer than workers={config.workers} (got collector {config.collector!r})")
-        if config.imitation_teacher not in ("scripted", "hybrid"):
-            raise ValueError(f"imitation_teacher must be 'scripted' or 'hybrid', got {config.imitation_teacher!r}")
-        if config.imitation_teacher == "hybrid" and not config.heatmap:
-            raise ValueError("imitation_teacher='hybrid' needs the heat-map head (the hybrid planner uses it)")
+        if config.imitation_teacher not in IMITATION_TEACHERS:
+            raise ValueError(f"imitation_teacher must be one of {IMITATION_TEACHERS}, got {config.imitation_teacher!r}")
+        if config.imitation_teacher != "scripted" and not config.heatmap:
+            raise ValueError(f"imitation_teacher={config.imitation_teacher!r} needs the heat-map head (the hybrid planner uses it)")
+        if config.imitation_teacher == "hybrid-acting" and config.collector != "single":
+            raise ValueError("imitation_teacher='hybrid-acting' needs collector 'single' (the acting planner uses the "
+                             f"live network in this process), got collector {config.collector!r}")
         if config.promotion == "hybrid" and not config.heatmap:
             raise ValueError("promotion='hybrid' needs the heat-map head (the hybrid planner uses it); use 'learner'")
         self.config = config
@@ -207,7 +212,8 @@ class Trainer:
         self.iteration = 0
         self.frames = 0
         self.train_seconds = 0.0
-        self.expert = ScriptedRetriever()
+        # the hybrid-acting teacher plans on the live network; reseeded every iteration
+        self.expert = HybridPlanner(self.net, m=4, h=4, seed=self.seed) if config.imitation_teacher == "hybrid-acting" else ScriptedRetriever()
         self.dagger = DaggerBuffer(config.imitation_buffer_iters)
         ckpt = self.run_dir / CHECKPOINT
         if ckpt.exists():
@@ -262,6 +268,8 @@ class Trainer:
         c = self.config
         if self.iteration >= c.imitation_iters or c.imitation_teacher == "hybrid":
             return 0.0
+        if c.imitation_teacher == "hybrid-acting":
+            return 1.0
         if c.imitation_beta_iters <= 0:
             return c.imitation_beta_min
         return max(c.imitation_beta_min, 1.0 - self.iteration / c.imitation_beta_iters)
@@ -396,7 +404,10 @@ class Trainer:
         beta = self._beta()
         if isinstance(self._policy, ExpertMixPolicy):
             self._policy.beta = beta
-        self.expert.reset()
+        if isinstance(self.expert, HybridPlanner):
+            self.expert.reseed(it_seed)
+        else:
+            self.expert.reset()
         collector.set_seed(it_seed)
         collector.update_policy_weights_()
         data = next(self._iterator)
@@ -529,6 +540,8 @@ class Trainer:
                 t_collect = time.time() - t0
                 if phase == "imitation" and c.imitation_teacher == "hybrid":
                     label_with_planner(data, self.net, seed=self.seed * 1_000_003 + self.iteration)
+                elif phase == "imitation" and c.imitation_teacher == "hybrid-acting":
+                    data.set("expert_action", data.get("action").clone())  # the planner acted
                 elif phase == "imitation" or c.ppo_bc_coeff > 0:
                     label_with_expert(data, self.expert)
                 compute_advantages(self.net, data, c.gamma, c.gae_lambda)

@@ -40,3 +40,23 @@ def test_trainer_with_planner_teacher(tmp_path):
         Trainer(get_train_config("tiny", imitation_teacher="oracle"), tmp_path / "b", seed=0, progress=False)
     with pytest.raises(ValueError, match="needs the heat-map head"):
         Trainer(get_train_config("tiny", imitation_teacher="hybrid", heatmap=False), tmp_path / "c", seed=0, progress=False)
+
+
+def test_trainer_with_the_planner_acting(tmp_path):
+    """imitation_teacher="hybrid-acting": the hybrid planner on the live network acts in every
+    episode; its actions are the labels (so the value regresses on the planner's own returns)."""
+    cfg = get_train_config("tiny", imitation_iters=5, imitation_teacher="hybrid-acting", collector="single")
+    tr = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False)
+    assert isinstance(tr.expert, HybridPlanner) and tr.expert.net is tr.net
+    data = tr._collect()
+    # every action of the batch is a decision of the planner (its decisions' first actions, in order)
+    decided = torch.stack([torch.as_tensor(d.action, dtype=torch.float32) for d in tr.expert.decisions[-data.numel():]])
+    taken = data["action"].transpose(0, 1).reshape(-1, 4)  # decided world by world at each step
+    assert torch.allclose(taken, decided, atol=1e-6)
+    tr.train(iterations=1)
+    tr.close()
+    row = json.loads((tmp_path / "metrics.jsonl").read_text().splitlines()[0])
+    assert row["phase"] == "imitation" and row["beta"] == 1.0
+    assert torch.isfinite(torch.tensor(row["loss_imitation"])) and torch.isfinite(torch.tensor(row["loss_critic"]))
+    with pytest.raises(ValueError, match="needs collector 'single'"):
+        Trainer(get_train_config("tiny", imitation_teacher="hybrid-acting", collector="multi"), tmp_path / "b", seed=0, progress=False)
