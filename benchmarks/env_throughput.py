@@ -3,7 +3,9 @@
 Usage:
     python benchmarks/env_throughput.py [--stage 2] [--steps 60]
 
-Prints physics ms per action, detection + render ms per observation, ShelfEnv + transforms
+Prints physics ms per action with the default physics and with occrl 0.1.0's
+(``LEGACY_PHYSICS``) side by side, alternated in rounds in this run (their ratio is the cost of
+the physics-validity change), detection + render ms per observation, ShelfEnv + transforms
 steps/s at B = 1, 16, 64, and the share of step time outside physics and rendering (TorchRL /
 tensordict overhead and observation assembly).
 """
@@ -19,21 +21,32 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import numpy as np
 import torch
 
-from occrl.envs import Scene, ShelfWorld, make_env
+from occrl.envs import DEFAULT_PHYSICS, LEGACY_PHYSICS, PhysicsSettings, Scene, ShelfWorld, make_env
 from occrl.envs.render import DEFAULT_CANVAS, render_labels
 from occrl.envs.robot_frame import robot_centric_points
 from occrl.envs.visibility import detect, visible_fractions
 from occrl.envs.world import wall_polygons
 
 
-def physics_ms(stage: int, n: int) -> float:
+def physics_ms(stage: int, n: int, physics: PhysicsSettings = DEFAULT_PHYSICS) -> float:
     rng = np.random.default_rng(0)
-    worlds = [ShelfWorld(Scene.sample(stage, seed=s)) for s in range(8)]
+    worlds = [ShelfWorld(Scene.sample(stage, seed=s), physics=physics) for s in range(8)]
     actions = rng.uniform(-1, 1, (n, 4))
     t = time.perf_counter()
     for k in range(n):
         worlds[k % len(worlds)].step(actions[k])
     return (time.perf_counter() - t) / n * 1e3
+
+
+def physics_old_and_new(stage: int, n: int, rounds: int = 5) -> tuple[float, float, float]:
+    """Median ms per action of the default and the 0.1.0 physics, and the median of the per-round
+    ratios, the two alternated in ``rounds`` rounds of ``n`` actions on the same shelves."""
+    new, old = [], []
+    for _ in range(rounds):
+        new.append(physics_ms(stage, n))
+        old.append(physics_ms(stage, n, LEGACY_PHYSICS))
+    ratio = float(np.median(np.array(new) / np.array(old)))
+    return float(np.median(new)), float(np.median(old)), ratio
 
 
 def perception_ms(stage: int, n: int) -> tuple[float, float]:
@@ -77,10 +90,10 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=60)
     args = parser.parse_args()
     torch.set_num_threads(1)
-    phys = physics_ms(args.stage, 2000)
+    phys, old, ratio = physics_old_and_new(args.stage, 400)
     det, ren = perception_ms(args.stage, 2000)
     print(f"stage {args.stage} scenes, one core")
-    print(f"physics:                 {phys:.3f} ms per action")
+    print(f"physics:                 {phys:.3f} ms per action (occrl 0.1.0's physics {old:.3f} ms; {ratio:.2f}x, same run)")
     print(f"detection (visibility):  {det:.3f} ms per observation")
     print(f"render + crop:           {ren:.3f} ms per observation")
     for batch in (1, 16, 64):

@@ -19,25 +19,31 @@ import argparse
 import gc
 import os
 import time
+from dataclasses import replace
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np
 
 from occrl.envs import Scene, ShelfWorld
-from occrl.envs.physics_settings import DEFAULT_PHYSICS, LEGACY_PHYSICS, PhysicsSettings
+from occrl.envs.physics_settings import DEFAULT_PHYSICS, LEGACY_PHYSICS, PYMUNK_COLLISION_BIAS, PhysicsSettings
 from occrl.envs.physics_validity import adversarial_pushing, pymunk_world_factory
 
-LIGHT = dict(gripper_mass=0.01, gripper_max_force=0.4, gripper_max_torque=0.04)
+# From occrl 0.1.0's settings towards the default, one change at a time, and the neighbours of
+# the default in step count.
+_OLD_GRIPPER = dict(gripper_mass=0.5, gripper_max_force=20.0, gripper_max_torque=2.0)
+_STEPS_1 = dict(substeps=10, contact_substeps=1)
 SETTINGS = {
     "legacy (0.1.0)": LEGACY_PHYSICS,
-    "slop 0.5 mm": PhysicsSettings(substeps=10, finger_contact=False),
-    "slop + 40 steps": PhysicsSettings(substeps=40, finger_contact=False),
-    "slop + 40 steps + fingers": PhysicsSettings(substeps=40),
-    "+ light gripper": PhysicsSettings(substeps=40, **LIGHT),
-    "+ light gripper, 80 steps": PhysicsSettings(substeps=80, **LIGHT),
-    "+ light gripper, 40 x 3 in contact": PhysicsSettings(substeps=40, contact_substeps=3, **LIGHT),
-    "default": DEFAULT_PHYSICS,
+    "slop 0.5 mm": PhysicsSettings(**_STEPS_1, collision_bias=PYMUNK_COLLISION_BIAS, finger_contact=False, **_OLD_GRIPPER),
+    "+ 40 steps": PhysicsSettings(substeps=40, contact_substeps=1, collision_bias=PYMUNK_COLLISION_BIAS, finger_contact=False, **_OLD_GRIPPER),
+    "+ fingers stop at contact": PhysicsSettings(substeps=40, contact_substeps=1, collision_bias=PYMUNK_COLLISION_BIAS, **_OLD_GRIPPER),
+    "+ 10 g gripper, 0.4 N": PhysicsSettings(substeps=40, contact_substeps=1, collision_bias=PYMUNK_COLLISION_BIAS),
+    "+ bias 1e-7 (40 steps)": PhysicsSettings(substeps=40, contact_substeps=1),
+    "30 steps, x2 in contact": PhysicsSettings(substeps=30, contact_substeps=2),
+    "20 steps, x3 in contact": PhysicsSettings(substeps=20, contact_substeps=3),
+    "60 steps": PhysicsSettings(substeps=60, contact_substeps=1),
+    "default: 40 steps, x2 in contact": DEFAULT_PHYSICS,
 }
 CELLS = [(2, 0.0), (2, 0.25), (3, 0.0), (3, 0.25)]
 
@@ -79,7 +85,8 @@ def main() -> None:
     print(f"adversarial pushing, stages 2 and 3 x noise 0 and 0.25, {args.states} states per cell ({4 * args.states} in all)")
     print(f"{'setting':36s} {'> 2 mm':>8s} {'> 5 mm':>8s} {'worst':>8s} {'crossed':>8s} {'cost':>6s}   per cell (> 2 mm / worst)")
     for name, physics in settings.items():
-        reports = [adversarial_pushing(pymunk_world_factory(physics), st, nz, args.states) for st, nz in CELLS]
+        measured = replace(physics, measure_validity=True)  # 0.1.0 did not measure itself
+        reports = [adversarial_pushing(pymunk_world_factory(measured), st, nz, args.states) for st, nz in CELLS]
         pen = np.concatenate([r.penetration for r in reports])
         crossed = sum(r.crossings for r in reports)
         cells = "  ".join(f"{100 * r.share_above(0.002):.2f}%/{r.worst_mm:.1f}" for r in reports)

@@ -1,11 +1,13 @@
 """Hybrid-planner decision time on one core, and batched RHP against the sequential reference.
 
 Usage:
-    python benchmarks/planner_latency.py [--decisions 30] [--weights PATH]
+    python benchmarks/planner_latency.py [--decisions 30] [--weights PATH] [--physics-change]
 
 Decisions are taken on observations from stage-2 episodes (the scripted retriever drives, so the
 states are realistic; the target is often hidden, giving up to 3 heat-map roots). Uses the
 shipped network when present, else ``--weights``, else an untrained paper net (says which).
+``--physics-change`` only prints 4x4 decision times with the default physics and with occrl
+0.1.0's (``LEGACY_PHYSICS``) in the planner's imagined worlds, alternated in rounds in this run.
 """
 
 from __future__ import annotations
@@ -15,6 +17,9 @@ import os
 import time
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import importlib
+from dataclasses import replace
 
 import numpy as np
 import torch
@@ -54,11 +59,15 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--decisions", type=int, default=30)
     parser.add_argument("--weights", default=None)
+    parser.add_argument("--physics-change", action="store_true", help="4x4 decisions with the default and the 0.1.0 physics")
     args = parser.parse_args()
     torch.set_num_threads(1)
     net, name = load_net(args.weights)
     obs = observations(net, args.decisions)
     print(f"network: {name}; {len(obs)} decisions on stage-2 states; one core")
+    if args.physics_change:
+        physics_change(net, obs)
+        return
     for m, h in ((2, 2), (4, 4), (6, 6)):
         planner = HybridPlanner(net, m=m, h=h, seed=0)
         times, roots = [], []
@@ -83,6 +92,29 @@ def main() -> None:
         same += bool(torch.allclose(act_a, act_b, atol=1e-5))
     print(f"4x4 batched {1e3 * tb / len(obs):.1f} ms vs sequential {1e3 * ts / len(obs):.1f} ms per decision: {ts / tb:.1f}x faster; same action in {same}/{len(obs)} decisions")
     breakdown(net, obs)
+
+
+def physics_change(net, obs, rounds: int = 2) -> None:
+    """4x4 decision times with the planner's worlds on the default and on occrl 0.1.0's physics."""
+    from occrl.envs import LEGACY_PHYSICS
+
+    recreate = importlib.import_module("occrl.planners.recreate")  # the package re-exports a function of that name
+    settings = {"default physics": recreate.PLANNING_PHYSICS, "0.1.0 physics": LEGACY_PHYSICS}
+    times: dict[str, list[float]] = {k: [] for k in settings}
+    try:
+        for _ in range(rounds):
+            for label, physics in settings.items():
+                recreate.PLANNING_PHYSICS = replace(physics, measure_validity=False)
+                planner = HybridPlanner(net, m=4, h=4, seed=0)
+                for td in obs:
+                    planner(td.clone())
+                    times[label].append(planner.decisions[-1].seconds * 1e3)
+    finally:
+        recreate.PLANNING_PHYSICS = settings["default physics"]
+    for label, t in times.items():
+        print(f"hybrid 4x4, {label}: p50 {np.percentile(t, 50):6.1f} ms, p95 {np.percentile(t, 95):6.1f} ms")
+    new, old = times["default physics"], times["0.1.0 physics"]
+    print(f"ratio p50 {np.percentile(new, 50) / np.percentile(old, 50):.2f}x, p95 {np.percentile(new, 95) / np.percentile(old, 95):.2f}x")
 
 
 # where a decision's time goes (cProfile cumulative time of these functions)

@@ -64,8 +64,9 @@ def make_env(
         heatmap_target: also render ``("privileged", "heatmap_target")`` for training.
         backend: ``"pymunk"`` (the 2D world) or ``"mujoco"`` (:class:`~occrl.envs.MujocoShelfEnv`, the
             3D execution env with its default visibility ``"auto"``; needs ``pip install -e ".[mujoco]"``).
-        **env_kwargs: passed to the env class, e.g. ``record_camera=True`` or ``visibility="rays"``
-            for MuJoCo.
+        **env_kwargs: passed to the env class, e.g. ``physics=occrl.envs.LEGACY_PHYSICS`` (the
+            pymunk physics of occrl 0.1.0), or ``record_camera=True`` or ``visibility="rays"`` for
+            MuJoCo.
 
     Examples:
         >>> from occrl.envs import make_env
