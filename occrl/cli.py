@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import math
 import os
 import sys
 import time
@@ -319,17 +320,44 @@ def _bench(args: argparse.Namespace) -> int:
     return 0
 
 
+def _bounded(kind, low=None, high=None, low_open=False, what=""):
+    """An argparse type: a ``kind`` (int or float) within [low, high] (``low_open``: > low), finite;
+    otherwise argparse's one-line error naming the option, the value and what is allowed."""
+
+    def parse(text: str):
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not {'an integer' if kind is int else 'a number'}") from None
+        if kind is float and not math.isfinite(value):
+            raise argparse.ArgumentTypeError(f"{text} is not a finite number")
+        too_low = low is not None and (value <= low if low_open else value < low)
+        if too_low or (high is not None and value > high):
+            raise argparse.ArgumentTypeError(f"{text} is out of range; allowed: {what}")
+        return value
+
+    return parse
+
+
+COUNT = _bounded(int, 1, what="an integer >= 1")
+NON_NEGATIVE = _bounded(int, 0, what="an integer >= 0")
+SEED = _bounded(int, 0, 2**63 - 1, what="an integer in [0, 2**63)")
+POSITIVE = _bounded(float, 0.0, low_open=True, what="a number > 0")
+NOISE = _bounded(float, 0.0, 1.0, what="a number in [0, 1] (the paper uses 0 to 0.25)")
+SCALE = _bounded(float, 0.0, 1.0, what="a number in [0, 1]")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="occrl", description=__doc__.splitlines()[0])
     parser.add_argument("-v", "--verbose", action="store_true")
     sub = parser.add_subparsers(dest="command", required=True)
 
     d = sub.add_parser("demo", help="retrieve targets from random shelves; writes a summary and a GIF")
-    d.add_argument("--tasks", type=int, default=3)
+    d.add_argument("--tasks", type=COUNT, default=3)
     d.add_argument("--stage", type=int, default=1, choices=[1, 2, 3])
-    d.add_argument("--seed", type=int, default=2024)
+    d.add_argument("--seed", type=SEED, default=2024)
     d.add_argument("--out", default="occrl-demo")
-    d.add_argument("--fps", type=float, default=4.0)
+    d.add_argument("--fps", type=POSITIVE, default=4.0)
     d.add_argument("--method", default="hybrid-4x4", choices=["hybrid-2x2", "hybrid-4x4", "hybrid-6x6", "scripted"])
     d.add_argument("--weights", default=None, help="network weights file or a shipped network's name instead of occnet")
     d.add_argument("--world", choices=["pymunk", "mujoco"], default="pymunk",
@@ -339,17 +367,17 @@ def main(argv: list[str] | None = None) -> int:
     t = sub.add_parser("train", help="train OccNet (curriculum PPO + heat-map loss); resumes from RUN_DIR")
     t.add_argument("--preset", default="paper", help="training preset: paper, cpu, cpu-finetune, cpu-curriculum, tiny")
     t.add_argument("--run-dir", required=True, help="run folder (checkpoint, logs, curves); keep it outside the source tree")
-    t.add_argument("--seed", type=int, default=0)
-    t.add_argument("--iterations", type=int, default=None, help="stop after this many iterations in total")
-    t.add_argument("--max-hours", type=float, default=None, help="stop after this many hours of this session")
+    t.add_argument("--seed", type=SEED, default=0)
+    t.add_argument("--iterations", type=COUNT, default=None, help="stop after this many iterations in total")
+    t.add_argument("--max-hours", type=POSITIVE, default=None, help="stop after this many hours of this session")
     t.add_argument("--collector", choices=["single", "multi", "ray"], default=None,
                    help="TorchRL collector: single process, MultiSyncCollector or RayCollector (a run may switch "
                         "between multi and ray when resumed: they collect the same batches)")
     t.add_argument("--ray-address", default=None,
                    help="with --collector ray: join this Ray cluster ('auto', 'host:6379', 'ray://host:10001'); "
                         "default: start a local Ray runtime")
-    t.add_argument("--num-envs", type=int, default=None)
-    t.add_argument("--imitation-iters", type=int, default=None, help="DAgger warm-start iterations (0 = PPO from scratch)")
+    t.add_argument("--num-envs", type=COUNT, default=None)
+    t.add_argument("--imitation-iters", type=NON_NEGATIVE, default=None, help="DAgger warm-start iterations (0 = PPO from scratch)")
     t.add_argument("--no-heatmap", action="store_true", help="train the net without heat-map head (baselines)")
     t.add_argument("--promotion", choices=["learner", "hybrid"], default=None,
                    help="curriculum rule: the paper's hybrid 4x4 validation (needs the heat-map head) or the learner's own success")
@@ -359,15 +387,15 @@ def main(argv: list[str] | None = None) -> int:
                         "(the value learns the planner's own returns; collector single)")
     t.add_argument("--start-stage", type=int, choices=[1, 2, 3], default=None,
                    help="curriculum stage of a new run (e.g. 2 when continuing a net that passed stage 1)")
-    t.add_argument("--promotion-eval-tasks", type=int, default=None,
+    t.add_argument("--promotion-eval-tasks", type=COUNT, default=None,
                    help="validation tasks of the hybrid promotion check (presets: 30; its 95 %% interval is about +-15 points, "
                         "100 tasks about +-8)")
-    t.add_argument("--replay-stage-workers", type=int, default=None,
+    t.add_argument("--replay-stage-workers", type=NON_NEGATIVE, default=None,
                    help="collector workers that keep collecting the previous stage after a promotion (or below --start-stage)")
     t.add_argument("--init-weights", default=None,
                    help="start a new run from these weights: a weights file (e.g. a run's weights_warmstart.pt) "
                         "or a shipped name (occnet, occnet-noheatmap); used by the cpu-finetune preset")
-    t.add_argument("--checkpoint-every", type=float, default=300.0, help="seconds between checkpoints")
+    t.add_argument("--checkpoint-every", type=POSITIVE, default=300.0, help="seconds between checkpoints")
     t.add_argument("--no-progress", action="store_true")
     t.set_defaults(func=_train)
 
@@ -375,7 +403,7 @@ def main(argv: list[str] | None = None) -> int:
     e.add_argument("--method", help="hybrid-2x2, hybrid-4x4, hybrid-6x6, hybrid-lim-4x4, greedy, stochastic, stochastic-gen, scripted")
     e.add_argument("--sweep", action="store_true", help="the papers' clutter and noise sweeps (resumable; --out is a folder)")
     e.add_argument("--methods", default=None, help="comma-separated methods for --sweep (default: all but scripted)")
-    e.add_argument("--chunk", type=int, default=None,
+    e.add_argument("--chunk", type=COUNT, default=None,
                    help="with --sweep: rounds of this many tasks (every point gets them before any gets more), so an "
                         "interrupted sweep leaves a complete figure; cached points are extended, never recomputed")
     e.add_argument("--stage", type=int, default=1, choices=[1, 2, 3])
@@ -383,16 +411,16 @@ def main(argv: list[str] | None = None) -> int:
                    help="object count per task: a number, or a range like 1-10 (each task draws its count from its seed)")
     e.add_argument("--world", choices=["pymunk", "mujoco"], default="pymunk",
                    help="execution env: the 2D pymunk world or the 3D MuJoCo shelf (planners still plan in pymunk)")
-    e.add_argument("--noise", type=float, default=0.0)
-    e.add_argument("--tasks", type=int, default=200, help="tasks per point (the paper uses 300 for sweeps)")
-    e.add_argument("--seed", type=int, default=10_000_000, help="first task seed (held-out range by default)")
-    e.add_argument("--batch", type=int, default=16, help="worlds stepped together (policies; planners use 1)")
-    e.add_argument("--workers", type=int, default=1, help="processes (or Ray actors) to spread tasks over")
+    e.add_argument("--noise", type=NOISE, default=0.0)
+    e.add_argument("--tasks", type=COUNT, default=200, help="tasks per point (the paper uses 300 for sweeps)")
+    e.add_argument("--seed", type=SEED, default=10_000_000, help="first task seed (held-out range by default)")
+    e.add_argument("--batch", type=COUNT, default=16, help="worlds stepped together (policies; planners use 1)")
+    e.add_argument("--workers", type=COUNT, default=1, help="processes (or Ray actors) to spread tasks over")
     e.add_argument("--backend", choices=["local", "ray"], default="local",
                    help="local processes or Ray actors (results are the same for the same seeds)")
     e.add_argument("--ray-address", default=None, help="with --backend ray: join this Ray cluster (default: a local runtime)")
     e.add_argument("--weights", default=None, help="network weights file, or a shipped network's name (occnet-ei), instead of the method's default")
-    e.add_argument("--rollout-min-scale", type=float, default=0.0,
+    e.add_argument("--rollout-min-scale", type=SCALE, default=0.0,
                    help="hybrid planners: floor on the roll-out policy's standard deviation (default 0: the policy's own, as in the paper)")
     e.add_argument("--out", default=None, help="write the results as JSON")
     e.add_argument("--no-progress", action="store_true")
@@ -402,7 +430,7 @@ def main(argv: list[str] | None = None) -> int:
     x.add_argument("--run-dir", required=True)
     x.add_argument("--name", required=True, help="occnet, occnet-noheatmap or occnet-ei")
     x.add_argument("--preset", required=True, help="the training preset the run used")
-    x.add_argument("--seed", type=int, default=0)
+    x.add_argument("--seed", type=SEED, default=0)
     x.add_argument("--weights", default=None,
                    help="weights file in the run folder (default weights.pt, the latest; e.g. weights_warmstart.pt)")
     x.add_argument("--dest", default=None, help="write into this folder instead of the package's pretrained/ (for trying it out)")
@@ -413,7 +441,10 @@ def main(argv: list[str] | None = None) -> int:
     b.add_argument("rest", nargs=argparse.REMAINDER)
     b.set_defaults(func=_bench)
 
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exit_:  # argparse printed the usage and a one-line error (or the help)
+        return int(exit_.code or 0)
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
     os.environ.setdefault("MUJOCO_GL", "egl")
     try:

@@ -12,10 +12,46 @@ import numpy as np
 import torch
 from tensordict import TensorDict, TensorDictBase
 
+from occrl.envs import world_constants as C
 from occrl.envs.geometry import transform_polygons
+from occrl.envs.scene import canonical_polygon
 
 
-__all__ = ["detected_polygons", "observation_from_detections"]
+__all__ = ["detected_polygons", "observation_from_detections", "DETECTION_KEYS"]
+
+DETECTION_KEYS = ("type_id", "pose", "vertices")
+
+
+def _finite_vector(name: str, value, size: int, allowed: str) -> np.ndarray:
+    try:
+        v = np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be {allowed}, got {value!r}") from None
+    if v.shape != (size,):
+        raise ValueError(f"{name} must be {allowed}, got {value!r}")
+    if not np.all(np.isfinite(v)):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    return v
+
+
+def _type_id(name: str, value, high: int) -> int:
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"{name} must be an int, got {value!r}")
+    if not 1 <= int(value) < high:
+        raise ValueError(f"{name} must be in [1, {high}) (0 means 'no object'), got {value}")
+    return int(value)
+
+
+def _vertices(name: str, value) -> np.ndarray:
+    try:
+        v = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a list of [x, y] pairs, got {value!r}") from None
+    if v.ndim != 2 or v.shape[1] != 2:
+        raise ValueError(f"{name} must be a list of [x, y] pairs, got shape {v.shape}")
+    if not np.all(np.isfinite(v)):
+        raise ValueError(f"{name} must be finite, got {v.tolist()}")
+    return v
 
 
 def detected_polygons(obs: TensorDictBase) -> list[tuple[list[np.ndarray], list[bool]]]:
@@ -65,6 +101,13 @@ def observation_from_detections(
     The result has the keys of :class:`~occrl.envs.ShelfEnv`'s observation (without
     ``"privileged"``), so transforms, networks and planners run on it unchanged.
 
+    Everything is checked as :meth:`~occrl.envs.Scene.from_objects` checks a scene: poses are 3
+    finite numbers, the opening lies within the 85 mm stroke, ``gripper_closed`` is a bool, type ids
+    are ints in [1, 1,000,000) and unique among the detections, and every shape (the target's too)
+    is a convex polygon of 3 to 8 finite vertices (clockwise order is turned counter-clockwise).
+    Anything else raises ``ValueError`` (``TypeError`` for a wrong kind of value) naming the field,
+    the value and what is allowed.
+
     Examples:
         >>> import numpy as np
         >>> from occrl.envs.perception import observation_from_detections
@@ -75,8 +118,20 @@ def observation_from_detections(
         >>> td["objects", "detected"].sum().item()
         1
     """
-    from occrl.envs.shelf_env import MAX_POLY_VERTICES, MAX_SLOTS, pad_polygon
+    from occrl.envs.shelf_env import MAX_POLY_VERTICES, MAX_SLOTS, MAX_TYPE_ID, pad_polygon
 
+    gp = _finite_vector("gripper_pose", gripper_pose, 3, "(x, y, theta)")
+    if np.ndim(gripper_opening) != 0:
+        raise ValueError(f"gripper_opening must be one number (m), got {gripper_opening!r}")
+    opening = float(_finite_vector("gripper_opening", [gripper_opening], 1, "one number (m)")[0])
+    if not 0.0 <= opening <= C.GRIPPER_STROKE:
+        raise ValueError(f"gripper_opening must be in [0, {C.GRIPPER_STROKE}] m (the stroke), got {opening}")
+    if not isinstance(gripper_closed, (bool, np.bool_)):
+        raise TypeError(f"gripper_closed must be a bool (the last gripper command), got {gripper_closed!r}")
+    target = _type_id("target_type", target_type, MAX_TYPE_ID)
+    tv = canonical_polygon(_vertices("target_vertices", target_vertices), "target_vertices")
+    if isinstance(detections, (str, bytes, dict)) or not isinstance(detections, Sequence):
+        raise TypeError(f"detections must be a list of dicts, got {type(detections).__name__}")
     if len(detections) > MAX_SLOTS:
         raise ValueError(f"at most {MAX_SLOTS} detections fit the observation, got {len(detections)}")
     N, V = MAX_SLOTS, MAX_POLY_VERTICES
@@ -85,26 +140,31 @@ def observation_from_detections(
     pose = np.zeros((1, N, 3), np.float32)
     verts = np.zeros((1, N, V, 2), np.float32)
     nv = np.zeros((1, N), np.int64)
+    seen: dict[int, int] = {}
     for k, d in enumerate(detections):
-        v = np.asarray(d["vertices"], dtype=float)
-        if v.ndim != 2 or v.shape[1] != 2 or not 3 <= len(v) <= V:
-            raise ValueError(f"detection {k}: vertices must be 3 to {V} [x, y] pairs, got shape {v.shape}")
-        p = np.asarray(d["pose"], dtype=float)
-        if p.shape != (3,) or not np.all(np.isfinite(p)) or not np.all(np.isfinite(v)):
-            raise ValueError(f"detection {k}: pose must be 3 finite numbers and vertices finite")
+        if not isinstance(d, dict):
+            raise TypeError(f"detections[{k}] must be a dict with 'type_id', 'pose', 'vertices', got {type(d).__name__}")
+        missing = [key for key in DETECTION_KEYS if key not in d]
+        if missing:
+            raise ValueError(f"detections[{k}] is missing {missing}; required: {list(DETECTION_KEYS)}")
+        tid = _type_id(f"detections[{k}]['type_id']", d["type_id"], MAX_TYPE_ID)
+        if tid in seen:
+            raise ValueError(f"detections[{k}] and detections[{seen[tid]}] have the same type_id {tid}; a detection names one object")
+        seen[tid] = k
+        p = _finite_vector(f"detections[{k}]['pose']", d["pose"], 3, "(x, y, theta)")
+        v = canonical_polygon(_vertices(f"detections[{k}]['vertices']", d["vertices"]), f"detections[{k}]['vertices']")
         det[0, k] = True
-        type_id[0, k] = int(d["type_id"])
+        type_id[0, k] = tid
         pose[0, k] = p
         verts[0, k] = pad_polygon(v)
         nv[0, k] = len(v)
-    tv = np.asarray(target_vertices, dtype=float)
     t = torch.from_numpy
     return TensorDict(
         {
-            "gripper_pose": torch.tensor([list(map(float, gripper_pose))], dtype=torch.float32),
-            "gripper_opening": torch.tensor([[float(gripper_opening)]], dtype=torch.float32),
+            "gripper_pose": torch.tensor([gp.tolist()], dtype=torch.float32),
+            "gripper_opening": torch.tensor([[opening]], dtype=torch.float32),
             "gripper_closed": torch.tensor([[bool(gripper_closed)]]),
-            "target_type": torch.tensor([[int(target_type)]]),
+            "target_type": torch.tensor([[target]]),
             "target_vertices": t(pad_polygon(tv)[None]),
             "target_num_vertices": torch.tensor([[len(tv)]]),
             "objects": TensorDict(

@@ -24,7 +24,7 @@ from occrl.envs.geometry import (
     transform_points,
 )
 
-__all__ = ["SceneObject", "Scene", "STAGES", "random_convex_polygon"]
+__all__ = ["SceneObject", "Scene", "STAGES", "random_convex_polygon", "validate_pose", "canonical_polygon"]
 
 # Curriculum stages (paper Sec. V): number of objects and where the target may be placed.
 STAGES: dict[int, dict[str, Any]] = {
@@ -97,7 +97,7 @@ class Scene:
 
     def __post_init__(self) -> None:
         validate_objects(self.objects)
-        _validate_pose("gripper_pose", self.gripper_pose)
+        validate_pose("gripper_pose", self.gripper_pose)
         _validate_gripper(self.gripper_pose, self.objects)
 
     @property
@@ -165,8 +165,8 @@ class Scene:
                 raise ValueError(f"object {i}: vertices must be a list of [x, y] pairs, got shape {verts.shape}")
             if not np.all(np.isfinite(verts)):
                 raise ValueError(f"object {i}: vertices contain NaN or inf")
-            _validate_pose(f"object {i} pose", item["pose"])
-            verts = _canonical_polygon(verts, f"object {i}")
+            validate_pose(f"object {i} pose", item["pose"])
+            verts = canonical_polygon(verts, f"object {i}")
             centroid = polygon_centroid(verts)
             x, y, th = (float(v) for v in item["pose"])
             cx, cy = transform_points(centroid[None], (x, y, th))[0]
@@ -225,7 +225,8 @@ class Scene:
 
 
 # ---------------------------------------------------------------------- validation
-def _validate_pose(name: str, pose: Any) -> None:
+def validate_pose(name: str, pose: Any) -> None:
+    """Raise ``ValueError`` naming ``name`` unless ``pose`` is 3 finite numbers (x, y, theta)."""
     try:
         p = np.asarray(pose, dtype=float)
     except (TypeError, ValueError):
@@ -236,8 +237,9 @@ def _validate_pose(name: str, pose: Any) -> None:
         raise ValueError(f"{name} contains NaN or inf: {pose!r}")
 
 
-def _canonical_polygon(verts: np.ndarray, name: str) -> np.ndarray:
-    """CCW order; rejects degenerate and non-convex input instead of silently taking a hull."""
+def canonical_polygon(verts: np.ndarray, name: str) -> np.ndarray:
+    """``verts`` in counter-clockwise order; ``ValueError`` naming ``name`` for a wrong vertex
+    count and for degenerate or non-convex input (instead of silently taking a hull)."""
     if len(verts) < C.MIN_VERTICES or len(verts) > C.MAX_VERTICES:
         raise ValueError(f"{name}: a polygon needs {C.MIN_VERTICES} to {C.MAX_VERTICES} vertices, got {len(verts)}")
     if polygon_area(verts) < 0:
@@ -266,7 +268,7 @@ def validate_objects(objects: Sequence[SceneObject]) -> None:
         raise ValueError(f"type ids must be unique within a scene, got {type_ids}")
     world = []
     for i, o in enumerate(objects):
-        _validate_pose(f"object {i} pose", o.pose)
+        validate_pose(f"object {i} pose", o.pose)
         if not is_convex_ccw(o.vertices):
             raise ValueError(f"object {i}: polygon is not strictly convex and counter-clockwise")
         if polygon_area(o.vertices) < 1e-6:

@@ -23,9 +23,35 @@ def test_bad_input_is_an_error_message_not_a_traceback(tmp_path, capsys):
     assert main(["eval", "--method", "stochastic-gen", "--weights", str(tmp_path / "none.pt"), "--tasks", "1", "--no-progress"]) == 2
     assert "no checkpoint" in capsys.readouterr().err
     assert main(["train", "--preset", "tiny", "--replay-stage-workers", "-1", "--run-dir", str(tmp_path / "run")]) == 2
-    assert "replay_stage_workers must be >= 0" in capsys.readouterr().err
+    assert "--replay-stage-workers: -1 is out of range; allowed: an integer >= 0" in capsys.readouterr().err
     assert main(["train", "--preset", "tiny", "--promotion-eval-tasks", "0", "--run-dir", str(tmp_path / "run")]) == 2
-    assert "promotion_eval_tasks must be >= 1" in capsys.readouterr().err
+    assert "--promotion-eval-tasks: 0 is out of range; allowed: an integer >= 1" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["eval", "--method", "scripted", "--tasks", "0"], "--tasks: 0 is out of range; allowed: an integer >= 1"),
+        (["eval", "--method", "scripted", "--tasks", "ten"], "--tasks: 'ten' is not an integer"),
+        (["eval", "--method", "scripted", "--noise", "nan"], "--noise: nan is not a finite number"),
+        (["eval", "--method", "scripted", "--noise", "2"], "--noise: 2 is out of range; allowed: a number in [0, 1]"),
+        (["eval", "--method", "scripted", "--workers", "-3"], "--workers: -3 is out of range"),
+        (["eval", "--method", "scripted", "--batch", "0"], "--batch: 0 is out of range"),
+        (["eval", "--method", "scripted", "--seed", "-1"], "--seed: -1 is out of range"),
+        (["eval", "--sweep", "--chunk", "0"], "--chunk: 0 is out of range"),
+        (["eval", "--method", "scripted", "--objects", "5-3", "--tasks", "1"], "--objects must be a count >= 1 or a range"),
+        (["eval", "--method", "scripted", "--objects", "0", "--tasks", "1"], "--objects must be a count >= 1 or a range"),
+        (["demo", "--tasks", "-1"], "--tasks: -1 is out of range"),
+        (["demo", "--fps", "0"], "--fps: 0 is out of range; allowed: a number > 0"),
+        (["train", "--preset", "tiny", "--run-dir", "x", "--num-envs", "0"], "--num-envs: 0 is out of range"),
+        (["train", "--preset", "tiny", "--run-dir", "x", "--max-hours", "-1"], "--max-hours: -1 is out of range"),
+        (["train", "--preset", "tiny", "--run-dir", "x", "--checkpoint-every", "inf"], "--checkpoint-every: inf is not a finite number"),
+    ],
+)
+def test_bad_numbers_get_one_line_errors(argv, message, capsys):
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
 
 
 def test_demo_writes_summary_gif_and_strip(tmp_path):
@@ -61,8 +87,8 @@ def test_rollout_min_scale_reaches_the_planner_and_the_json(tmp_path, capsys):
     assert json.loads(out.read_text())["rollout_min_scale"] == 0.3
     for bad, message in ((["--method", "scripted", "--rollout-min-scale", "0.3"], "applies to a single hybrid method"),
                          (["--sweep", "--rollout-min-scale", "0.3"], "applies to a single hybrid method"),
-                         (["--method", "hybrid-4x4", "--rollout-min-scale", "nan"], "must be in [0, 1]"),
-                         (["--method", "hybrid-4x4", "--rollout-min-scale", "1.5"], "must be in [0, 1]")):
+                         (["--method", "hybrid-4x4", "--rollout-min-scale", "nan"], "is not a finite number"),
+                         (["--method", "hybrid-4x4", "--rollout-min-scale", "1.5"], "allowed: a number in [0, 1]")):
         capsys.readouterr()
         assert main(["eval", *bad, "--tasks", "1", "--no-progress", "--out", str(tmp_path / "x")]) == 2
         assert message in capsys.readouterr().err
