@@ -20,7 +20,7 @@ from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
-from occrl.modules.occnet import OccNet
+from occrl.modules.occnet import OccNet, require_recurrent_state
 
 __all__ = ["NetPolicy"]
 
@@ -71,6 +71,7 @@ class NetPolicy(TensorDictModuleBase):
         self._generators = [torch.Generator().manual_seed(int(s)) for s in seeds]
 
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+        require_recurrent_state(tensordict, type(self).__name__)
         with set_exploration_type(ExplorationType.DETERMINISTIC):
             tensordict = self.net.policy(tensordict)
         if not self.stochastic:

@@ -25,7 +25,32 @@ from occrl.envs import world_constants as C
 from occrl.modules.encoder import ConvEncoder
 from occrl.modules.heads import HeatmapHead, PolicyHead, ValueHead
 
-__all__ = ["OccNetConfig", "OccNet", "make_occnet", "PRESETS"]
+__all__ = ["OccNetConfig", "OccNet", "make_occnet", "PRESETS", "RECURRENT_KEYS", "require_recurrent_state"]
+
+# what a recurrent decision maker reads besides the observation: the LSTM's state entries (added by
+# the net's primer) and the episode-start flag (added by TorchRL's InitTracker, which make_env adds)
+RECURRENT_KEYS = ("recurrent_state_h", "recurrent_state_c", "is_init")
+
+
+def require_recurrent_state(tensordict, who: str) -> None:
+    """Raise ``KeyError`` saying how to fix it when ``tensordict`` lacks :data:`RECURRENT_KEYS`.
+
+    Examples:
+        >>> from tensordict import TensorDict
+        >>> from occrl.modules.occnet import require_recurrent_state
+        >>> require_recurrent_state(TensorDict({}, []), "HybridPlanner")
+        Traceback (most recent call last):
+        ...
+        KeyError: "HybridPlanner needs the entries ['recurrent_state_h', 'recurrent_state_c', 'is_init'] ..."
+    """
+    keys = tensordict.keys()
+    missing = [k for k in RECURRENT_KEYS if k not in keys]
+    if missing:
+        raise KeyError(
+            f"{who} needs the entries {missing} in the tensordict: the LSTM's state comes from the network's "
+            "primer, env = env.append_transform(net.make_primer()), and 'is_init' from TorchRL's InitTracker "
+            "(occrl.envs.make_env adds it)"
+        )
 
 
 @dataclass(frozen=True)

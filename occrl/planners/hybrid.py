@@ -23,7 +23,7 @@ from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
 
 from occrl.envs import world_constants as C
-from occrl.modules.occnet import OccNet
+from occrl.modules.occnet import OccNet, require_recurrent_state
 from occrl.planners.recreate import recreate
 from occrl.planners.rhp import RHPResult, rhp_batched, rhp_sequential
 from occrl.planners.states import Root, generate_states
@@ -116,10 +116,15 @@ class HybridPlanner(TensorDictModuleBase):
         rollout_min_scale: float = 0.0,
     ) -> None:
         super().__init__()
+        if not isinstance(net, OccNet):
+            raise TypeError(f"net must be an occrl OccNet (make_occnet / load_pretrained), got {type(net).__name__}")
         if net.heatmap is None:
             raise ValueError("the hybrid planner needs a network with a heat-map head (make_occnet(heatmap=True))")
-        if m < 1 or h < 1:
-            raise ValueError(f"m and h must be >= 1, got m={m}, h={h}")
+        for name, value in (("m", m), ("h", h), ("max_roots", max_roots)):
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+                raise ValueError(f"{name} must be an int >= 1, got {value!r}")
+        if not 0.0 < gamma <= 1.0:
+            raise ValueError(f"gamma must be in (0, 1], got {gamma}")
         if not 0.0 <= rollout_min_scale <= 1.0:
             raise ValueError(f"rollout_min_scale must be in [0, 1] (a standard deviation in action units), got {rollout_min_scale}")
         self.net = net.eval()
@@ -140,6 +145,7 @@ class HybridPlanner(TensorDictModuleBase):
 
     @torch.no_grad()
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+        require_recurrent_state(tensordict, "HybridPlanner")
         flat = tensordict.reshape(-1)
         hidden_h = flat.get("recurrent_state_h").clone()
         hidden_c = flat.get("recurrent_state_c").clone()
