@@ -15,6 +15,8 @@ import sys
 import time
 from pathlib import Path
 
+from occrl.atomic_files import write_text_atomic
+
 __all__ = ["main"]
 
 
@@ -85,7 +87,7 @@ def _demo(args: argparse.Namespace) -> int:
         frames_all.extend(episode_frames(td, decisions=getattr(policy, "decisions", None)))
     success = float(np.mean([r["result"] == "success" for r in rows]))
     summary = {"method": method, "description": label, "stage": args.stage, "world": args.world, "tasks": rows, "success_rate": success}
-    (out / "demo_summary.json").write_text(json.dumps(summary, indent=2))
+    write_text_atomic(out / "demo_summary.json", json.dumps(summary, indent=2))
     gif = save_gif(frames_all, out / "demo.gif", fps=args.fps)
     strip = save_film_strip(frames_all[: max(1, len(frames_all) // args.tasks + 1)], out / "demo_strip.png")
     print(f"success {success:.0%}; wrote {out / 'demo_summary.json'}, {gif}, {strip}")
@@ -221,8 +223,7 @@ def _eval(args: argparse.Namespace) -> int:
         f"mean time {summary['mean_seconds']:.2f} s"
     )
     if args.out:
-        Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.out).write_text(json.dumps(summary, indent=2))
+        write_text_atomic(args.out, json.dumps(summary, indent=2))  # never a half-written result
         print(f"wrote {args.out}")
     return 0
 

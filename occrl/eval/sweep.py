@@ -15,6 +15,7 @@ task against clutter and against noise, one line per method).
 from __future__ import annotations
 
 import csv
+import io
 import json
 import logging
 from pathlib import Path
@@ -22,6 +23,7 @@ from typing import Sequence
 
 import numpy as np
 
+from occrl.atomic_files import write_text_atomic
 from occrl.eval.runner import EVAL_SEED_BASE, EpisodeResult, run_tasks, summarize, task_object_count
 
 __all__ = ["SWEEPS", "run_sweep", "summarize_sweep", "plot_sweep", "sweep_films", "noise_sweep_objects"]
@@ -126,9 +128,7 @@ def run_sweep(
                     results = [done[s] for s in sorted(done)]
                     point = {"method": method, "sweep": sweep, "value": value, **summarize(results),
                              "episodes": [r.to_dict() for r in results]}
-                    tmp = path.with_suffix(".tmp")
-                    tmp.write_text(json.dumps(point))
-                    tmp.replace(path)
+                    write_text_atomic(path, json.dumps(point))  # a point is cached whole or not at all
                     logger.info("%s %s=%g (%d tasks): success %.2f", method, sweep, value, len(results), point["success_rate"])
     summarize_sweep(out)
     plot_sweep(out)
@@ -172,12 +172,13 @@ def summarize_sweep(out: str | Path) -> list[dict]:
         rows.append({k: p[k] for k in ("method", "sweep", "value", "tasks", "successes", "success_rate", "dropped", "mean_actions", "mean_seconds")}
                     | {"ci95_low": p["success_ci95"][0], "ci95_high": p["success_ci95"][1]})
     rows.sort(key=lambda r: (r["sweep"], r["method"], r["value"]))
-    (out / "results.json").write_text(json.dumps(rows, indent=2))
+    write_text_atomic(out / "results.json", json.dumps(rows, indent=2))
     if rows:
-        with open(out / "results.csv", "w", newline="") as f:
-            w = csv.DictWriter(f, fieldnames=list(rows[0]))
-            w.writeheader()
-            w.writerows(rows)
+        table = io.StringIO(newline="")
+        w = csv.DictWriter(table, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+        write_text_atomic(out / "results.csv", table.getvalue())
     return rows
 
 

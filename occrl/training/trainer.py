@@ -71,6 +71,14 @@ def _freeze_scale_outputs(net) -> None:
     last.bias.register_hook(lambda g: g * mask.squeeze(-1))
 
 
+def _complete_row(line: str) -> bool:
+    """Whether a metrics line is a whole JSON row (a crash mid-append leaves a partial one)."""
+    try:
+        return isinstance(json.loads(line), dict)
+    except json.JSONDecodeError:
+        return False
+
+
 def _sha256(path: str | Path) -> str:
     import hashlib
 
@@ -215,6 +223,8 @@ class Trainer:
         # the hybrid-acting teacher plans on the live network; reseeded every iteration
         self.expert = HybridPlanner(self.net, m=4, h=4, seed=self.seed) if config.imitation_teacher == "hybrid-acting" else ScriptedRetriever()
         self.dagger = DaggerBuffer(config.imitation_buffer_iters)
+        for partial in self.run_dir.glob("*.tmp"):  # a write a crash interrupted; its target is intact
+            partial.unlink()
         ckpt = self.run_dir / CHECKPOINT
         if ckpt.exists():
             obj = load_checkpoint(ckpt, self.net, self.optimizer)
@@ -226,10 +236,11 @@ class Trainer:
             self.iteration, self.frames, self.train_seconds = st["iteration"], st["frames"], st["train_seconds"]
             self.curriculum.load_state_dict(st["curriculum"])
             if self.iteration < config.imitation_iters and config.imitation_updates > 0:
-                if (self.run_dir / DAGGER_DATA).exists():
-                    self.dagger.load(self.run_dir / DAGGER_DATA)
+                dagger_file = self.run_dir / (st.get("dagger_data") or DAGGER_DATA)  # checkpoints before 0.2: one fixed name
+                if dagger_file.exists():
+                    self.dagger.load(dagger_file)
                 else:
-                    logger.warning("no %s next to the checkpoint: the DAgger data set restarts empty (resume not exact)", DAGGER_DATA)
+                    logger.warning("no %s next to the checkpoint: the DAgger data set restarts empty (resume not exact)", dagger_file.name)
             logger.info("resumed %s at iteration %d (stage %d, %d frames)", ckpt, self.iteration, self.curriculum.stage, self.frames)
             self._truncate_metrics()
             self.init_weights = st.get("init_weights")
@@ -239,6 +250,7 @@ class Trainer:
                                ckpt, (self.init_weights or {}).get("path", "scratch"), init_weights)
         else:
             self.init_weights = None
+            self._truncate_metrics()  # rows of a run killed before its first checkpoint are redone
             if init_weights is not None:
                 load_weights(init_weights, self.net)  # CheckpointError for another architecture or a bad file
                 self.net.eval()
@@ -602,8 +614,10 @@ class Trainer:
         """Drop metric rows written after the checkpoint we resumed from (they will be redone)."""
         path = self.run_dir / METRICS
         if path.exists():
-            rows = [line for line in path.read_text().splitlines() if line.strip() and json.loads(line)["iteration"] <= self.iteration]
-            path.write_text("".join(r + "\n" for r in rows))
+            rows = [line for line in path.read_text().splitlines() if _complete_row(line) and json.loads(line)["iteration"] <= self.iteration]
+            tmp = path.with_suffix(".jsonl.tmp")
+            tmp.write_text("".join(r + "\n" for r in rows))
+            tmp.replace(path)
 
     def _log(self, summary: dict) -> None:
         with open(self.run_dir / METRICS, "a") as f:
@@ -624,12 +638,21 @@ class Trainer:
         }
 
     def save(self) -> None:
-        """Write the resumable checkpoint, the weights file and the learning-curve plot."""
-        save_checkpoint(self.run_dir / CHECKPOINT, self.net, self.optimizer, self.config.to_dict(), self.state())
+        """Write the resumable checkpoint, the weights file and the learning-curve plot.
+
+        Crash-safe: every file is written to a temporary name and renamed into place, and the
+        checkpoint is the commit point. The DAgger data set goes first, under a name that carries
+        the iteration, which the checkpoint then records; only after the checkpoint is in place
+        are older data sets deleted. A run killed at any moment resumes from the last complete
+        checkpoint with the data set that belongs to it (tests/training/test_kill_resume.py)."""
+        dagger_name = None
         if self.iteration < self.config.imitation_iters and self.config.imitation_updates > 0:
-            self.dagger.save(self.run_dir / DAGGER_DATA)
-        elif (self.run_dir / DAGGER_DATA).exists():
-            (self.run_dir / DAGGER_DATA).unlink()  # the warm start is over
+            dagger_name = f"dagger_buffer-{self.iteration:07d}.pt"
+            self.dagger.save(self.run_dir / dagger_name)
+        save_checkpoint(self.run_dir / CHECKPOINT, self.net, self.optimizer, self.config.to_dict(), {**self.state(), "dagger_data": dagger_name})
+        for old in self.run_dir.glob("dagger_buffer*.pt"):
+            if old.name != dagger_name:
+                old.unlink()  # not named by the checkpoint any more (or the warm start is over)
         save_weights(self.run_dir / WEIGHTS, self.net, {"train_preset": self.config.preset, **self.state()})
         if not (self.run_dir / METRICS).exists():  # no iteration yet
             return
