@@ -71,6 +71,8 @@ class ScriptedRetriever(TensorDictModuleBase):
 
     def __init__(self, lateral_tolerance: float = 0.006) -> None:
         super().__init__()
+        if not 0.0 <= lateral_tolerance <= 0.05:
+            raise ValueError(f"lateral_tolerance must be in [0, 0.05] m, got {lateral_tolerance!r}")
         self.lateral_tolerance = lateral_tolerance
         self._plans: dict[bytes, tuple[float, np.ndarray]] = {}  # grasp plans by target pose
         self._tried: dict[bytes, list[float]] = {}  # approach angles that ended with clutter in the way

@@ -152,6 +152,8 @@ class Scene:
             >>> len(scene)
             1
         """
+        if isinstance(objects, (str, bytes, dict)) or not hasattr(objects, "__iter__"):
+            raise TypeError(f"objects must be a list of dicts, got {type(objects).__name__}")
         items = list(objects)
         built = []
         for i, item in enumerate(items):
@@ -160,19 +162,27 @@ class Scene:
             missing = {"vertices", "pose"} - set(item)
             if missing:
                 raise ValueError(f"object {i}: missing key(s) {sorted(missing)}; required: 'vertices', 'pose'")
-            verts = np.asarray(item["vertices"], dtype=float)
+            try:
+                verts = np.asarray(item["vertices"], dtype=float)
+            except (TypeError, ValueError):
+                raise ValueError(f"object {i}: vertices must be a list of [x, y] pairs of numbers, got {item['vertices']!r}") from None
             if verts.ndim != 2 or verts.shape[1] != 2:
                 raise ValueError(f"object {i}: vertices must be a list of [x, y] pairs, got shape {verts.shape}")
             if not np.all(np.isfinite(verts)):
                 raise ValueError(f"object {i}: vertices contain NaN or inf")
             validate_pose(f"object {i} pose", item["pose"])
+            type_id = item.get("type_id", i + 1)
+            if isinstance(type_id, (bool, np.bool_)) or not isinstance(type_id, (int, np.integer)):
+                raise TypeError(f"object {i}: type_id must be an int, got {type_id!r}")
+            if not isinstance(item.get("is_target", False), (bool, np.bool_)):
+                raise TypeError(f"object {i}: is_target must be a bool, got {item['is_target']!r}")
             verts = canonical_polygon(verts, f"object {i}")
             centroid = polygon_centroid(verts)
             x, y, th = (float(v) for v in item["pose"])
             cx, cy = transform_points(centroid[None], (x, y, th))[0]
             built.append(
                 SceneObject(
-                    type_id=int(item.get("type_id", i + 1)),
+                    type_id=int(type_id),
                     vertices=verts - centroid,
                     pose=(float(cx), float(cy), th),
                     is_target=bool(item.get("is_target", False)),

@@ -103,3 +103,36 @@ def test_an_evaluation_killed_while_writing_leaves_no_partial_result(tmp_path):
     assert not out.exists()  # the result is written whole or not at all
     assert subprocess.run([sys.executable, "-c", CHILD, "plain", *argv], env=env, capture_output=True).returncode == 0
     assert json.loads(out.read_text())["tasks"] == 2 and not list(tmp_path.glob("*.tmp"))
+
+
+def _points(folder: Path) -> dict:
+    out = {}
+    for p in sorted((folder / "points").glob("*.json")):
+        point = json.loads(p.read_text())
+        out[p.name] = [{k: v for k, v in e.items() if k != "seconds"} for e in point["episodes"]]
+    return out
+
+
+@pytest.mark.slow
+def test_a_sweep_killed_at_any_moment_resumes_without_partial_or_duplicated_tasks(tmp_path):
+    argv = ["eval", "--sweep", "--methods", "scripted", "--tasks", "2", "--chunk", "1", "--no-progress"]
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+
+    def sweep(out: Path, mode: str = "plain", kill_after: float | None = None) -> None:
+        proc = subprocess.Popen([sys.executable, "-c", CHILD, mode, *argv, "--out", str(out)], env=env,
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        try:
+            proc.wait(timeout=kill_after)
+        except subprocess.TimeoutExpired:
+            proc.send_signal(signal.SIGKILL)
+            proc.wait()
+
+    sweep(tmp_path / "straight")
+    killed = tmp_path / "killed"
+    sweep(killed, "rename-7")  # in the middle of the first round, before a point's rename
+    partial = _points(killed)
+    assert 0 < len(partial) < 16 and all(len(v) == 1 for v in partial.values())
+    sweep(killed, "plain", kill_after=random.Random(1).uniform(3.0, 8.0))
+    sweep(killed)
+    assert _points(killed) == _points(tmp_path / "straight")  # every task once, the same outcomes
+    assert not list((killed / "points").glob("*.tmp"))
