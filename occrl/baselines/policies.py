@@ -53,6 +53,10 @@ class NetPolicy(TensorDictModuleBase):
 
     def __init__(self, net: OccNet, stochastic: bool, seed: int = 0) -> None:
         super().__init__()
+        if not isinstance(net, OccNet):
+            raise TypeError(f"net must be an occrl OccNet (make_occnet / load_pretrained), got {type(net).__name__}")
+        if not isinstance(stochastic, bool):
+            raise TypeError(f"stochastic must be a bool (True: sample the action, False: its mean), got {stochastic!r}")
         self.net = net
         self.stochastic = stochastic
         self.in_keys = list(net.policy.in_keys)

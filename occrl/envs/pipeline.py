@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Sequence
 
 from torchrl.envs import Compose, InitTracker, StepCounter, TransformedEnv
@@ -75,6 +76,12 @@ def make_env(
         >>> td["pixels"].shape, float(td["pixels"].max()) <= 1.0
         (torch.Size([4, 3, 64, 64]), True)
     """
+    if not window > 0.0 or not math.isfinite(window):
+        raise ValueError(f"window must be a positive size in metres, got {window!r}")
+    if isinstance(size, bool) or not isinstance(size, int) or size < 8:
+        raise ValueError(f"size must be an int >= 8 (pixels), got {size!r}")
+    if not math.isfinite(forward_offset):
+        raise ValueError(f"forward_offset must be finite (metres), got {forward_offset!r}")
     if backend == "pymunk":
         env_cls = ShelfEnv
     elif backend == "mujoco":
