@@ -201,8 +201,15 @@ class HierarchicalPlanner(TensorDictModuleBase):
             raise ValueError(f"plan_seconds must be > 0, got {plan_seconds}")
         if sweep_from not in ("left", "nearest"):
             raise ValueError(f"sweep_from must be 'left' or 'nearest', got {sweep_from!r}")
-        if search_y > _OUT_Y:
-            raise ValueError(f"search_y must be <= {_OUT_Y} (outside the shelf), got {search_y}")
+        if not C.GRIPPER_Y_LIMITS[0] <= search_y <= _OUT_Y:
+            raise ValueError(f"search_y must be in [{C.GRIPPER_Y_LIMITS[0]}, {_OUT_Y}] (outside the shelf, reachable), got {search_y}")
+        if not 0.0 < sweep_x <= C.GRIPPER_X_LIMITS[1]:
+            raise ValueError(f"sweep_x must be in (0, {C.GRIPPER_X_LIMITS[1]}] m (the reachable width), got {sweep_x}")
+        for name, value in (("extract_margin", extract_margin), ("place_radius", place_radius)):
+            if not 0.0 <= value <= 0.2:
+                raise ValueError(f"{name} must be in [0, 0.2] m, got {value}")
+        if not time_limit > 0:
+            raise ValueError(f"time_limit must be > 0 s, got {time_limit}")
         self.plan_seconds = float(plan_seconds)
         self.planner = planner
         self.sweep_x = float(sweep_x)
