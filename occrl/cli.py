@@ -15,6 +15,7 @@ import sys
 import time
 from pathlib import Path
 
+from occrl import __version__
 from occrl.atomic_files import write_text_atomic
 
 __all__ = ["main"]
@@ -351,6 +352,7 @@ SCALE = _bounded(float, 0.0, 1.0, what="a number in [0, 1]")
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="occrl", description=__doc__.splitlines()[0])
     parser.add_argument("-v", "--verbose", action="store_true")
+    parser.add_argument("--version", action="version", version=f"occrl {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
 
     d = sub.add_parser("demo", help="retrieve targets from random shelves; writes a summary and a GIF")

@@ -93,3 +93,10 @@ def test_rollout_min_scale_reaches_the_planner_and_the_json(tmp_path, capsys):
         assert main(["eval", *bad, "--tasks", "1", "--no-progress", "--out", str(tmp_path / "x")]) == 2
         assert message in capsys.readouterr().err
         assert not (tmp_path / "x").exists()
+
+
+def test_version(capsys):
+    import occrl
+
+    assert main(["--version"]) == 0
+    assert capsys.readouterr().out.strip() == f"occrl {occrl.__version__}"
