@@ -137,7 +137,7 @@ def success_tables(table) -> None:
             continue
         methods = [m for m in METHOD_ORDER if (sweep, m) in table] + sorted(m for (sw, m) in table if sw == sweep and m not in METHOD_ORDER)
         print(f"\nsuccess (%) against {label}:\n")
-        print(f"| method | " + " | ".join(f"{v:g}" for v in values) + " |")
+        print("| method | " + " | ".join(f"{v:g}" for v in values) + " |")
         print("| --- | " + " | ".join("---" for _ in values) + " |")
         for m in methods:
             pts = table[(sweep, m)]

@@ -12,8 +12,7 @@ another head reading ``"belief"``) and keep the rest.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
-from typing import Sequence
+from dataclasses import asdict, dataclass
 
 import torch
 from tensordict.nn import TensorDictModule, TensorDictSequential

@@ -223,8 +223,8 @@ class Trainer:
         # the hybrid-acting teacher plans on the live network; reseeded every iteration
         self.expert = HybridPlanner(self.net, m=4, h=4, seed=self.seed) if config.imitation_teacher == "hybrid-acting" else ScriptedRetriever()
         self.dagger = DaggerBuffer(config.imitation_buffer_iters)
-        for partial in self.run_dir.glob("*.tmp"):  # a write a crash interrupted; its target is intact
-            partial.unlink()
+        for leftover in self.run_dir.glob("*.tmp"):  # a write a crash interrupted; its target is intact
+            leftover.unlink()
         ckpt = self.run_dir / CHECKPOINT
         if ckpt.exists():
             obj = load_checkpoint(ckpt, self.net, self.optimizer)

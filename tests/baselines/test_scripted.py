@@ -3,7 +3,7 @@ import pytest
 
 from occrl.baselines import ScriptedRetriever
 from occrl.baselines.scripted import plan_grasp
-from occrl.envs import Scene, ShelfEnv
+from occrl.envs import ShelfEnv
 from occrl.eval.runner import run_episodes, summarize, task_scenes
 from tests.helpers import scene
 

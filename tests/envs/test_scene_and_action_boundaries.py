@@ -11,7 +11,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from occrl.envs import Scene, ShelfEnv
-from occrl.envs import world_constants as C
 
 
 @settings(max_examples=40, deadline=None)

@@ -65,7 +65,6 @@ def test_advantages_use_exact_next_values(batch):
     done = data["next", "done"].squeeze(-1)
     value = data["state_value"]
     target = data["value_target"]
-    r = data["next", "reward"]
     adv = data["advantage"]
     assert torch.allclose(target, adv + value, atol=1e-5)
     assert not done[:, :-1].all()

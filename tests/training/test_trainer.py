@@ -40,7 +40,7 @@ def test_run_folder_has_logs_curves_and_small_files(tmp_path):
     tr = Trainer(get_train_config("tiny"), tmp_path, seed=0, progress=False, tensorboard=True)
     tr.train(iterations=2)
     tr.close()
-    rows = [json.loads(l) for l in (tmp_path / "metrics.jsonl").read_text().splitlines()]
+    rows = [json.loads(line) for line in (tmp_path / "metrics.jsonl").read_text().splitlines()]
     assert [r["iteration"] for r in rows] == [1, 2] and all("loss_heatmap" in r for r in rows)
     assert (tmp_path / "learning_curves.png").stat().st_size > 1000
     assert any((tmp_path / "tensorboard").rglob("events.*"))
@@ -99,7 +99,7 @@ def test_resume_from_an_older_checkpoint_supersedes_later_metric_rows(tmp_path):
     again = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False)
     again.train(iterations=2)
     again.close()
-    iterations = [json.loads(l)["iteration"] for l in (tmp_path / "metrics.jsonl").read_text().splitlines()]
+    iterations = [json.loads(line)["iteration"] for line in (tmp_path / "metrics.jsonl").read_text().splitlines()]
     assert iterations == [1, 2]
 
 
@@ -109,7 +109,7 @@ def test_hybrid_promotion_rule(tmp_path):
     tr = Trainer(always, tmp_path / "a", seed=0, progress=False, tensorboard=False)
     tr.train(iterations=3)
     tr.close()
-    rows = [json.loads(l) for l in (tmp_path / "a" / "metrics.jsonl").read_text().splitlines()]
+    rows = [json.loads(line) for line in (tmp_path / "a" / "metrics.jsonl").read_text().splitlines()]
     assert [r["stage"] for r in rows] == [1, 2, 2]
     assert "hybrid_success_rate" in rows[1] and "hybrid_success_rate" not in rows[0]
     never = get_train_config("tiny", promotion="hybrid", promotion_eval_every=1, promotion_eval_tasks=2, promote_threshold=1.0,
@@ -128,7 +128,7 @@ def test_hybrid_promotion_rule(tmp_path):
     tr = Trainer(dagger, tmp_path / "e", seed=0, progress=False, tensorboard=False)
     tr.train(iterations=2)
     tr.close()
-    rows = [json.loads(l) for l in (tmp_path / "e" / "metrics.jsonl").read_text().splitlines()]
+    rows = [json.loads(line) for line in (tmp_path / "e" / "metrics.jsonl").read_text().splitlines()]
     assert [(r["phase"], r["stage"], r["beta"]) for r in rows] == [("imitation", 2, 0.3), ("imitation", 3, 0.3)]
     assert "hybrid_success_rate" in rows[1]
     with pytest.raises(ValueError, match="needs the heat-map head"):
