@@ -218,15 +218,34 @@ def _eval(args: argparse.Namespace) -> int:
         "episodes": [r.to_dict() for r in results],
     }
     lo, hi = summary["success_ci95"]
-    print(
-        f"{args.method}: {args.world} world, stage {args.stage}, objects {args.objects or 'of the stage'}, noise {args.noise}, {summary['tasks']} tasks: success {summary['success_rate']:.1%} "
-        f"(95% CI {lo:.1%}-{hi:.1%}), dropped {summary['dropped']}, mean actions {summary['mean_actions']:.1f}, "
-        f"mean time {summary['mean_seconds']:.2f} s"
-    )
+    if args.format == "text":
+        print(
+            f"{args.method}: {args.world} world, stage {args.stage}, objects {args.objects or 'of the stage'}, noise {args.noise}, {summary['tasks']} tasks: success {summary['success_rate']:.1%} "
+            f"(95% CI {lo:.1%}-{hi:.1%}), dropped {summary['dropped']}, mean actions {summary['mean_actions']:.1f}, "
+            f"mean time {summary['mean_seconds']:.2f} s"
+        )
+    else:
+        print(_summary_table(summary, args.format))
     if args.out:
         write_text_atomic(args.out, json.dumps(summary, indent=2))  # never a half-written result
         print(f"wrote {args.out}")
     return 0
+
+
+SUMMARY_COLUMNS = ("method", "network", "world", "stage", "objects", "noise", "tasks", "success_rate", "ci95_low", "ci95_high",
+                   "dropped", "physically_invalid", "mean_actions", "mean_seconds")
+
+
+def _summary_table(summary: dict, fmt: str) -> str:
+    """One evaluation's summary as a Markdown table or CSV (header and one row)."""
+    row = {**summary, "ci95_low": summary["success_ci95"][0], "ci95_high": summary["success_ci95"][1]}
+    cells = []
+    for key in SUMMARY_COLUMNS:
+        value = row.get(key)
+        cells.append(f"{value:.4g}" if isinstance(value, float) else ("" if value is None else str(value)))
+    if fmt == "csv":
+        return ",".join(SUMMARY_COLUMNS) + "\n" + ",".join(cells)
+    return "| " + " | ".join(SUMMARY_COLUMNS) + " |\n|" + " --- |" * len(SUMMARY_COLUMNS) + "\n| " + " | ".join(cells) + " |"
 
 
 def _parse_objects(text: str | None) -> int | tuple[int, int] | None:
@@ -426,6 +445,8 @@ def main(argv: list[str] | None = None) -> int:
     e.add_argument("--rollout-min-scale", type=SCALE, default=0.0,
                    help="hybrid planners: floor on the roll-out policy's standard deviation (default 0: the policy's own, as in the paper)")
     e.add_argument("--out", default=None, help="write the results as JSON")
+    e.add_argument("--format", choices=["text", "markdown", "csv"], default="text",
+                   help="how to print the summary: a sentence, a Markdown table or CSV")
     e.add_argument("--no-progress", action="store_true")
     e.set_defaults(func=_eval)
 

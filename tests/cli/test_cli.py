@@ -100,3 +100,11 @@ def test_version(capsys):
 
     assert main(["--version"]) == 0
     assert capsys.readouterr().out.strip() == f"occrl {occrl.__version__}"
+
+
+@pytest.mark.parametrize("fmt, head", [("markdown", "| method | network |"), ("csv", "method,network,world,stage")])
+def test_eval_prints_a_table(fmt, head, capsys):
+    assert main(["eval", "--method", "scripted", "--tasks", "2", "--batch", "2", "--no-progress", "--format", fmt]) == 0
+    out = capsys.readouterr().out.strip().splitlines()
+    assert out[0].startswith(head) and "scripted" in out[-1]
+    assert len(out) == (3 if fmt == "markdown" else 2)
