@@ -333,8 +333,13 @@ def _bench(args: argparse.Namespace) -> int:
     root = Path(__file__).resolve().parent.parent / "benchmarks"
     script = root / f"{args.name}.py"
     if not script.exists():
-        available = sorted(p.stem for p in root.glob("*.py")) if root.exists() else []
-        print(f"no benchmark {args.name!r}; available: {available} (benchmarks/ ships with the source tree)", file=sys.stderr)
+        if not root.exists():
+            print("occrl bench: error: the benchmarks are scripts in benchmarks/ of a source checkout "
+                  "(git clone the repository, pip install -e ., then occrl bench NAME); this installation has none",
+                  file=sys.stderr)
+            return 2
+        available = sorted(p.stem for p in root.glob("*.py"))
+        print(f"occrl bench: error: no benchmark {args.name!r}; available: {available}", file=sys.stderr)
         return 2
     sys.argv = [str(script)] + args.rest
     runpy.run_path(str(script), run_name="__main__")

@@ -108,3 +108,9 @@ def test_eval_prints_a_table(fmt, head, capsys):
     out = capsys.readouterr().out.strip().splitlines()
     assert out[0].startswith(head) and "scripted" in out[-1]
     assert len(out) == (3 if fmt == "markdown" else 2)
+
+
+def test_bench_names_the_available_benchmarks(capsys):
+    assert main(["bench", "no_such_benchmark"]) == 2
+    err = capsys.readouterr().err
+    assert "no benchmark 'no_such_benchmark'" in err and "env_throughput" in err
