@@ -14,7 +14,7 @@ from tensordict import TensorDict, TensorDictBase
 
 from occrl.envs import world_constants as C
 from occrl.envs.geometry import transform_polygons
-from occrl.envs.scene import canonical_polygon
+from occrl.envs.scene import canonical_polygon, validate_vertices
 
 
 __all__ = ["detected_polygons", "observation_from_detections", "DETECTION_KEYS"]
@@ -40,18 +40,6 @@ def _type_id(name: str, value, high: int) -> int:
     if not 1 <= int(value) < high:
         raise ValueError(f"{name} must be in [1, {high}) (0 means 'no object'), got {value}")
     return int(value)
-
-
-def _vertices(name: str, value) -> np.ndarray:
-    try:
-        v = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a list of [x, y] pairs, got {value!r}") from None
-    if v.ndim != 2 or v.shape[1] != 2:
-        raise ValueError(f"{name} must be a list of [x, y] pairs, got shape {v.shape}")
-    if not np.all(np.isfinite(v)):
-        raise ValueError(f"{name} must be finite, got {v.tolist()}")
-    return v
 
 
 def detected_polygons(obs: TensorDictBase) -> list[tuple[list[np.ndarray], list[bool]]]:
@@ -129,7 +117,7 @@ def observation_from_detections(
     if not isinstance(gripper_closed, (bool, np.bool_)):
         raise TypeError(f"gripper_closed must be a bool (the last gripper command), got {gripper_closed!r}")
     target = _type_id("target_type", target_type, MAX_TYPE_ID)
-    tv = canonical_polygon(_vertices("target_vertices", target_vertices), "target_vertices")
+    tv = canonical_polygon(validate_vertices("target_vertices", target_vertices), "target_vertices")
     if isinstance(detections, (str, bytes, dict)) or not isinstance(detections, Sequence):
         raise TypeError(f"detections must be a list of dicts, got {type(detections).__name__}")
     if len(detections) > MAX_SLOTS:
@@ -152,7 +140,7 @@ def observation_from_detections(
             raise ValueError(f"detections[{k}] and detections[{seen[tid]}] have the same type_id {tid}; a detection names one object")
         seen[tid] = k
         p = _finite_vector(f"detections[{k}]['pose']", d["pose"], 3, "(x, y, theta)")
-        v = canonical_polygon(_vertices(f"detections[{k}]['vertices']", d["vertices"]), f"detections[{k}]['vertices']")
+        v = canonical_polygon(validate_vertices(f"detections[{k}]['vertices']", d["vertices"]), f"detections[{k}]['vertices']")
         det[0, k] = True
         type_id[0, k] = tid
         pose[0, k] = p

@@ -24,7 +24,7 @@ from occrl.envs.geometry import (
     transform_points,
 )
 
-__all__ = ["SceneObject", "Scene", "STAGES", "random_convex_polygon", "validate_pose", "canonical_polygon"]
+__all__ = ["SceneObject", "Scene", "STAGES", "random_convex_polygon", "validate_pose", "validate_vertices", "canonical_polygon"]
 
 # Curriculum stages (paper Sec. V): number of objects and where the target may be placed.
 STAGES: dict[int, dict[str, Any]] = {
@@ -162,14 +162,7 @@ class Scene:
             missing = {"vertices", "pose"} - set(item)
             if missing:
                 raise ValueError(f"object {i}: missing key(s) {sorted(missing)}; required: 'vertices', 'pose'")
-            try:
-                verts = np.asarray(item["vertices"], dtype=float)
-            except (TypeError, ValueError):
-                raise ValueError(f"object {i}: vertices must be a list of [x, y] pairs of numbers, got {item['vertices']!r}") from None
-            if verts.ndim != 2 or verts.shape[1] != 2:
-                raise ValueError(f"object {i}: vertices must be a list of [x, y] pairs, got shape {verts.shape}")
-            if not np.all(np.isfinite(verts)):
-                raise ValueError(f"object {i}: vertices contain NaN or inf")
+            verts = validate_vertices(f"object {i}: vertices", item["vertices"])
             validate_pose(f"object {i} pose", item["pose"])
             type_id = item.get("type_id", i + 1)
             if isinstance(type_id, (bool, np.bool_)) or not isinstance(type_id, (int, np.integer)):
@@ -245,6 +238,20 @@ def validate_pose(name: str, pose: Any) -> None:
         raise ValueError(f"{name} must be (x, y, theta), got shape {p.shape}")
     if not np.all(np.isfinite(p)):
         raise ValueError(f"{name} contains NaN or inf: {pose!r}")
+
+
+def validate_vertices(name: str, value: Any) -> np.ndarray:
+    """``value`` as an (n, 2) float array; ``ValueError`` naming ``name`` unless it is a list of
+    finite [x, y] pairs."""
+    try:
+        v = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a list of [x, y] pairs of numbers, got {value!r}") from None
+    if v.ndim != 2 or v.shape[1] != 2:
+        raise ValueError(f"{name} must be a list of [x, y] pairs, got shape {v.shape}")
+    if not np.all(np.isfinite(v)):
+        raise ValueError(f"{name} must be finite (no NaN or inf), got {v.tolist()}")
+    return v
 
 
 def canonical_polygon(verts: np.ndarray, name: str) -> np.ndarray:
