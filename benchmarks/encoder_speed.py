@@ -49,7 +49,9 @@ def main() -> None:
             x = torch.rand(n, 3, 64, 64)
             a, b = median_ms(lambda: contiguous(x), 50), median_ms(lambda: channels_last(x), 50)
             diff = (contiguous(x) - channels_last(x)).abs().max().item()
-            print(f"encoder inference, {n:>3} images: contiguous {a:6.2f} ms, channels-last {b:6.2f} ms ({a / b:.1f}x), max diff {diff:.1e}")
+            print(
+                f"encoder inference, {n:>3} images: contiguous {a:6.2f} ms, channels-last {b:6.2f} ms ({a / b:.1f}x), max diff {diff:.1e}"
+            )
     enc.train()
     x = torch.rand(500, 3, 64, 64)
     for name, f in (("contiguous", contiguous), ("channels-last", channels_last)):
@@ -62,7 +64,9 @@ def main() -> None:
         return head.decode(h.contiguous(memory_format=layout))
 
     for name, layout in (("contiguous", torch.contiguous_format), ("channels-last", torch.channels_last)):
-        print(f"heat-map decoder training step, 125 frames, {name}: {median_ms(lambda: decode(layout).square().mean().backward(), 5):.0f} ms")
+        print(
+            f"heat-map decoder training step, 125 frames, {name}: {median_ms(lambda: decode(layout).square().mean().backward(), 5):.0f} ms"
+        )
 
 
 if __name__ == "__main__":

@@ -100,7 +100,9 @@ def main() -> None:
         sps = pipeline_steps_per_s(batch, args.stage, args.steps if batch > 1 else 4 * args.steps)
         per_step_ms = 1e3 / sps
         outside = 1.0 - (phys + det + ren) / per_step_ms
-        print(f"B={batch:3d}: {sps:7.0f} env steps/s ({per_step_ms:.3f} ms/step; {100 * max(outside, 0):.0f} % outside physics, detection and rendering)")
+        print(
+            f"B={batch:3d}: {sps:7.0f} env steps/s ({per_step_ms:.3f} ms/step; {100 * max(outside, 0):.0f} % outside physics, detection and rendering)"
+        )
 
 
 if __name__ == "__main__":

@@ -60,8 +60,11 @@ def main() -> None:
         results.append(r)
         planning.append(policy.planning_seconds)
         plans = " ".join(f"{p.name}:{'ok' if p.success else 'FAIL'}/{len(p.actions)}" for p in policy.last_plans)
-        print(f"{seed} objects={r.objects} {'success' if success else 'failure'} actions={r.actions} "
-              f"time={seconds:.1f}s planning={policy.planning_seconds:.1f}s dropped={dropped} plans=[{plans}]", flush=True)
+        print(
+            f"{seed} objects={r.objects} {'success' if success else 'failure'} actions={r.actions} "
+            f"time={seconds:.1f}s planning={policy.planning_seconds:.1f}s dropped={dropped} plans=[{plans}]",
+            flush=True,
+        )
     summary = summarize(results)
     summary["mean_planning_seconds"] = float(np.mean(planning))
     summary["config"] = vars(args)

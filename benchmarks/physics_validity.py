@@ -36,7 +36,9 @@ _STEPS_1 = dict(substeps=10, contact_substeps=1)
 SETTINGS = {
     "legacy (0.1.0)": LEGACY_PHYSICS,
     "slop 0.5 mm": PhysicsSettings(**_STEPS_1, collision_bias=PYMUNK_COLLISION_BIAS, finger_contact=False, **_OLD_GRIPPER),
-    "+ 40 steps": PhysicsSettings(substeps=40, contact_substeps=1, collision_bias=PYMUNK_COLLISION_BIAS, finger_contact=False, **_OLD_GRIPPER),
+    "+ 40 steps": PhysicsSettings(
+        substeps=40, contact_substeps=1, collision_bias=PYMUNK_COLLISION_BIAS, finger_contact=False, **_OLD_GRIPPER
+    ),
     "+ fingers stop at contact": PhysicsSettings(substeps=40, contact_substeps=1, collision_bias=PYMUNK_COLLISION_BIAS, **_OLD_GRIPPER),
     "+ 10 g gripper, 0.4 N": PhysicsSettings(substeps=40, contact_substeps=1, collision_bias=PYMUNK_COLLISION_BIAS),
     "+ bias 1e-7 (40 steps)": PhysicsSettings(substeps=40, contact_substeps=1),

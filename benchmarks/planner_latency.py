@@ -76,7 +76,9 @@ def main() -> None:
             times.append(planner.decisions[-1].seconds)
             roots.append(len(planner.decisions[-1].roots))
         times = np.array(times) * 1e3
-        print(f"hybrid {m}x{h}: p50 {np.percentile(times, 50):6.1f} ms, p95 {np.percentile(times, 95):6.1f} ms (roots per decision: mean {np.mean(roots):.2f}, max {max(roots)})")
+        print(
+            f"hybrid {m}x{h}: p50 {np.percentile(times, 50):6.1f} ms, p95 {np.percentile(times, 95):6.1f} ms (roots per decision: mean {np.mean(roots):.2f}, max {max(roots)})"
+        )
     # batched against sequential on the same decisions and noise
     tb = ts = 0.0
     same = 0
@@ -90,7 +92,9 @@ def main() -> None:
         act_b = b(td.clone())["action"]
         ts += time.perf_counter() - t
         same += bool(torch.allclose(act_a, act_b, atol=1e-5))
-    print(f"4x4 batched {1e3 * tb / len(obs):.1f} ms vs sequential {1e3 * ts / len(obs):.1f} ms per decision: {ts / tb:.1f}x faster; same action in {same}/{len(obs)} decisions")
+    print(
+        f"4x4 batched {1e3 * tb / len(obs):.1f} ms vs sequential {1e3 * ts / len(obs):.1f} ms per decision: {ts / tb:.1f}x faster; same action in {same}/{len(obs)} decisions"
+    )
     floor(net, obs)
     breakdown(net, obs)
 
@@ -136,6 +140,7 @@ def floor(net, obs) -> None:
                 return fn(*a, **kw)
             finally:
                 spent[part] += time.perf_counter() - t
+
         return wrapper
 
     try:
@@ -151,8 +156,10 @@ def floor(net, obs) -> None:
             setattr(cls, name, saved[part])
     n = len(obs)
     low = spent["physics"] + spent["network"]
-    print(f"4x4 floor: physics {1e3 * spent['physics'] / n:.1f} ms + network {1e3 * spent['network'] / n:.1f} ms "
-          f"= {1e3 * low / n:.1f} ms of a {1e3 * total / n:.1f} ms decision; {100 * (1 - low / total):.0f} % above the floor")
+    print(
+        f"4x4 floor: physics {1e3 * spent['physics'] / n:.1f} ms + network {1e3 * spent['network'] / n:.1f} ms "
+        f"= {1e3 * low / n:.1f} ms of a {1e3 * total / n:.1f} ms decision; {100 * (1 - low / total):.0f} % above the floor"
+    )
 
 
 # where a decision's time goes (cProfile cumulative time of these functions)

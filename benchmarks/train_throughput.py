@@ -68,8 +68,7 @@ def main() -> None:
         detail = ", ".join(f"{k} {v * 1e3:.2f}" for k, v in parts.items())
         # the update uses every core while the collector workers wait (synchronous collection), so
         # even a collection that took no time at all could not exceed 1 / (update time per frame)
-        print(f"{'':>6}   update per frame {update * 1e3:.2f} ms ({detail}); bound with free collection "
-              f"{1 / update:6.0f} frames/s")
+        print(f"{'':>6}   update per frame {update * 1e3:.2f} ms ({detail}); bound with free collection {1 / update:6.0f} frames/s")
 
 
 if __name__ == "__main__":

@@ -39,8 +39,9 @@ def main() -> None:
     net = make_occnet("paper")
 
     # 1. swap the encoder: any module from "pixels" (B, 3, 64, 64) to "embed" (B, 1024)
-    wider = nn.Sequential(nn.Conv2d(3, 16, 5, stride=2, padding=2), nn.ReLU(), nn.Conv2d(16, 16, 5, stride=4, padding=2),
-                          nn.ReLU(), nn.Flatten(-3))  # 16 x 8 x 8 = 1024 features, like the paper's encoder
+    wider = nn.Sequential(
+        nn.Conv2d(3, 16, 5, stride=2, padding=2), nn.ReLU(), nn.Conv2d(16, 16, 5, stride=4, padding=2), nn.ReLU(), nn.Flatten(-3)
+    )  # 16 x 8 x 8 = 1024 features, like the paper's encoder
     net.trunk[0] = TensorDictModule(AnyLeadingDims(wider), in_keys=["pixels"], out_keys=["embed"])
 
     # 2. add a transform: TorchRL's RewardSum keeps each episode's return in "episode_reward"
@@ -48,8 +49,9 @@ def main() -> None:
         return make_env(batch_size=4, stage=1, seed=0).append_transform(RewardSum()).append_transform(net.make_primer())
 
     # 3. collect with a TorchRL collector and take one PPO + heat-map step
-    collector = Collector(make, net.policy, frames_per_batch=4 * 8, total_frames=4 * 8, reset_at_each_iter=True,
-                          exploration_type=ExplorationType.RANDOM)
+    collector = Collector(
+        make, net.policy, frames_per_batch=4 * 8, total_frames=4 * 8, reset_at_each_iter=True, exploration_type=ExplorationType.RANDOM
+    )
     data = next(iter(collector))
     collector.shutdown()
     loss = PPOHeatmapLoss(net)

@@ -36,8 +36,11 @@ def main() -> None:
         {"type_id": 5, "pose": (-0.12, 0.2, 1.0), "vertices": triangle},
     ]
     obs = observation_from_detections(
-        gripper_pose=(0.0, -0.1, 0.0), gripper_opening=0.085, detections=detections,
-        target_type=1, target_vertices=np.array(box),
+        gripper_pose=(0.0, -0.1, 0.0),
+        gripper_opening=0.085,
+        detections=detections,
+        target_type=1,
+        target_vertices=np.array(box),
     )
     # the network input, rendered from the detections exactly as in the simulated pipeline
     obs = RobotCentricCrop()(OcclusionRender()(obs))

@@ -83,7 +83,9 @@ def _demo(args: argparse.Namespace) -> int:
         dt = time.time() - t
         nxt = td.get("next")
         result = "success" if bool(nxt["success"].any()) else ("dropped" if bool(nxt["dropped"].any()) else "failed")
-        rows.append({"task": k, "seed": args.seed + k, "objects": len(scene), "result": result, "actions": td.shape[0], "seconds": round(dt, 3)})
+        rows.append(
+            {"task": k, "seed": args.seed + k, "objects": len(scene), "result": result, "actions": td.shape[0], "seconds": round(dt, 3)}
+        )
         print(f"{k:>4} {len(scene):>7} {result:>10} {td.shape[0]:>7} {dt:>7.2f}")
         frames_all.extend(episode_frames(td, decisions=getattr(policy, "decisions", None)))
     success = float(np.mean([r["result"] == "success" for r in rows]))
@@ -136,14 +138,23 @@ def _train(args: argparse.Namespace) -> int:
         from occrl.pretrained import pretrained_path
 
         init_weights = pretrained_path(init_weights)  # ValueError naming the shipped networks otherwise
-    trainer = Trainer(config, args.run_dir, seed=args.seed, progress=not args.no_progress, checkpoint_every_s=args.checkpoint_every,
-                      ray_address=args.ray_address, init_weights=init_weights)
+    trainer = Trainer(
+        config,
+        args.run_dir,
+        seed=args.seed,
+        progress=not args.no_progress,
+        checkpoint_every_s=args.checkpoint_every,
+        ray_address=args.ray_address,
+        init_weights=init_weights,
+    )
     _stop_on_signals()
     try:
         summary = trainer.train(iterations=args.iterations, max_seconds=args.max_hours * 3600 if args.max_hours else None)
     except KeyboardInterrupt as stop:
-        print(f"stopped ({stop or 'interrupted'}); checkpoint saved at iteration {trainer.iteration}: "
-              f"run the same command again to resume", file=sys.stderr)
+        print(
+            f"stopped ({stop or 'interrupted'}); checkpoint saved at iteration {trainer.iteration}: run the same command again to resume",
+            file=sys.stderr,
+        )
         return 130
     finally:
         trainer.close()
@@ -165,11 +176,17 @@ def _eval(args: argparse.Namespace) -> int:
 
     if args.rollout_min_scale:
         if args.sweep or not (args.method or "").startswith("hybrid"):
-            print("--rollout-min-scale applies to a single hybrid method (--method hybrid-...), not to "
-                  f"{'a sweep' if args.sweep else repr(args.method)}", file=sys.stderr)
+            print(
+                "--rollout-min-scale applies to a single hybrid method (--method hybrid-...), not to "
+                f"{'a sweep' if args.sweep else repr(args.method)}",
+                file=sys.stderr,
+            )
             return 2
         if not 0.0 <= args.rollout_min_scale <= 1.0:  # also catches NaN
-            print(f"--rollout-min-scale must be in [0, 1] (a standard deviation in action units), got {args.rollout_min_scale}", file=sys.stderr)
+            print(
+                f"--rollout-min-scale must be in [0, 1] (a standard deviation in action units), got {args.rollout_min_scale}",
+                file=sys.stderr,
+            )
             return 2
     if args.sweep:
         from occrl.eval.sweep import run_sweep
@@ -180,9 +197,20 @@ def _eval(args: argparse.Namespace) -> int:
             print(f"unknown method(s) {unknown}; available: {METHODS}", file=sys.stderr)
             return 2
         try:
-            out = run_sweep(methods, args.out or "occrl-sweep", args.tasks, args.seed, batch=args.batch, workers=args.workers,
-                            weights=_weights_file(args.weights), progress=not args.no_progress, backend=args.backend,
-                            ray_address=args.ray_address, chunk=args.chunk, films=True)
+            out = run_sweep(
+                methods,
+                args.out or "occrl-sweep",
+                args.tasks,
+                args.seed,
+                batch=args.batch,
+                workers=args.workers,
+                weights=_weights_file(args.weights),
+                progress=not args.no_progress,
+                backend=args.backend,
+                ray_address=args.ray_address,
+                chunk=args.chunk,
+                films=True,
+            )
         finally:
             _stop_ray_if_used(args)
         print(f"wrote {out / 'results.csv'}, {out / 'results.json'}, {out / 'sweep.png'}, {out / 'films'}")
@@ -200,9 +228,21 @@ def _eval(args: argparse.Namespace) -> int:
     if args.world == "mujoco":
         batch = 1  # one MuJoCo world per task: per-task time is exact and memory stays small
     try:
-        results = run_tasks(args.method, args.stage, seeds, args.noise, objects, batch, args.workers, _weights_file(args.weights),
-                            not args.no_progress, backend=args.backend, ray_address=args.ray_address, world=args.world,
-                            rollout_min_scale=args.rollout_min_scale)
+        results = run_tasks(
+            args.method,
+            args.stage,
+            seeds,
+            args.noise,
+            objects,
+            batch,
+            args.workers,
+            _weights_file(args.weights),
+            not args.no_progress,
+            backend=args.backend,
+            ray_address=args.ray_address,
+            world=args.world,
+            rollout_min_scale=args.rollout_min_scale,
+        )
     finally:
         _stop_ray_if_used(args)
     summary = {
@@ -232,8 +272,22 @@ def _eval(args: argparse.Namespace) -> int:
     return 0
 
 
-SUMMARY_COLUMNS = ("method", "network", "world", "stage", "objects", "noise", "tasks", "success_rate", "ci95_low", "ci95_high",
-                   "dropped", "physically_invalid", "mean_actions", "mean_seconds")
+SUMMARY_COLUMNS = (
+    "method",
+    "network",
+    "world",
+    "stage",
+    "objects",
+    "noise",
+    "tasks",
+    "success_rate",
+    "ci95_low",
+    "ci95_high",
+    "dropped",
+    "physically_invalid",
+    "mean_actions",
+    "mean_seconds",
+)
 
 
 def _summary_table(summary: dict, fmt: str) -> str:
@@ -306,7 +360,7 @@ def _export(args: argparse.Namespace) -> int:
         "stage_reached": stage,
         "phase": last["phase"],
         "summary": f"{args.name}: preset {args.preset}, iteration {last['iteration']}, {last['frames']:,} frames, stage {stage}, "
-                   f"{last['phase']} phase",
+        f"{last['phase']} phase",
     }
     checkpoint = run / "checkpoint.pt"
     started_from = load_checkpoint(checkpoint)["state"].get("init_weights") if checkpoint.exists() else None
@@ -334,9 +388,11 @@ def _bench(args: argparse.Namespace) -> int:
     script = root / f"{args.name}.py"
     if not script.exists():
         if not root.exists():
-            print("occrl bench: error: the benchmarks are scripts in benchmarks/ of a source checkout "
-                  "(git clone the repository, pip install -e ., then occrl bench NAME); this installation has none",
-                  file=sys.stderr)
+            print(
+                "occrl bench: error: the benchmarks are scripts in benchmarks/ of a source checkout "
+                "(git clone the repository, pip install -e ., then occrl bench NAME); this installation has none",
+                file=sys.stderr,
+            )
             return 2
         available = sorted(p.stem for p in root.glob("*.py"))
         print(f"occrl bench: error: no benchmark {args.name!r}; available: {available}", file=sys.stderr)
@@ -387,8 +443,12 @@ def main(argv: list[str] | None = None) -> int:
     d.add_argument("--fps", type=POSITIVE, default=4.0)
     d.add_argument("--method", default="hybrid-4x4", choices=["hybrid-2x2", "hybrid-4x4", "hybrid-6x6", "scripted"])
     d.add_argument("--weights", default=None, help="network weights file or a shipped network's name instead of occnet")
-    d.add_argument("--world", choices=["pymunk", "mujoco"], default="pymunk",
-                   help="execute in the 2D pymunk world or the 3D MuJoCo shelf (frames add the gripper-camera image)")
+    d.add_argument(
+        "--world",
+        choices=["pymunk", "mujoco"],
+        default="pymunk",
+        help="execute in the 2D pymunk world or the 3D MuJoCo shelf (frames add the gripper-camera image)",
+    )
     d.set_defaults(func=_demo)
 
     t = sub.add_parser("train", help="train OccNet (curriculum PPO + heat-map loss); resumes from RUN_DIR")
@@ -397,31 +457,60 @@ def main(argv: list[str] | None = None) -> int:
     t.add_argument("--seed", type=SEED, default=0)
     t.add_argument("--iterations", type=COUNT, default=None, help="stop after this many iterations in total")
     t.add_argument("--max-hours", type=POSITIVE, default=None, help="stop after this many hours of this session")
-    t.add_argument("--collector", choices=["single", "multi", "ray"], default=None,
-                   help="TorchRL collector: single process, MultiSyncCollector or RayCollector (a run may switch "
-                        "between multi and ray when resumed: they collect the same batches)")
-    t.add_argument("--ray-address", default=None,
-                   help="with --collector ray: join this Ray cluster ('auto', 'host:6379', 'ray://host:10001'); "
-                        "default: start a local Ray runtime")
+    t.add_argument(
+        "--collector",
+        choices=["single", "multi", "ray"],
+        default=None,
+        help="TorchRL collector: single process, MultiSyncCollector or RayCollector (a run may switch "
+        "between multi and ray when resumed: they collect the same batches)",
+    )
+    t.add_argument(
+        "--ray-address",
+        default=None,
+        help="with --collector ray: join this Ray cluster ('auto', 'host:6379', 'ray://host:10001'); default: start a local Ray runtime",
+    )
     t.add_argument("--num-envs", type=COUNT, default=None)
     t.add_argument("--imitation-iters", type=NON_NEGATIVE, default=None, help="DAgger warm-start iterations (0 = PPO from scratch)")
     t.add_argument("--no-heatmap", action="store_true", help="train the net without heat-map head (baselines)")
-    t.add_argument("--promotion", choices=["learner", "hybrid"], default=None,
-                   help="curriculum rule: the paper's hybrid 4x4 validation (needs the heat-map head) or the learner's own success")
-    t.add_argument("--imitation-teacher", choices=["scripted", "hybrid", "hybrid-acting"], default=None,
-                   help="who labels the imitation phase: the privileged scripted retriever, the hybrid 4x4 "
-                        "planner on the current network (expert iteration), or that planner acting and labelling "
-                        "(the value learns the planner's own returns; collector single)")
-    t.add_argument("--start-stage", type=int, choices=[1, 2, 3], default=None,
-                   help="curriculum stage of a new run (e.g. 2 when continuing a net that passed stage 1)")
-    t.add_argument("--promotion-eval-tasks", type=COUNT, default=None,
-                   help="validation tasks of the hybrid promotion check (presets: 30; its 95 %% interval is about +-15 points, "
-                        "100 tasks about +-8)")
-    t.add_argument("--replay-stage-workers", type=NON_NEGATIVE, default=None,
-                   help="collector workers that keep collecting the previous stage after a promotion (or below --start-stage)")
-    t.add_argument("--init-weights", default=None,
-                   help="start a new run from these weights: a weights file (e.g. a run's weights_warmstart.pt) "
-                        "or a shipped name (occnet, occnet-noheatmap); used by the cpu-finetune preset")
+    t.add_argument(
+        "--promotion",
+        choices=["learner", "hybrid"],
+        default=None,
+        help="curriculum rule: the paper's hybrid 4x4 validation (needs the heat-map head) or the learner's own success",
+    )
+    t.add_argument(
+        "--imitation-teacher",
+        choices=["scripted", "hybrid", "hybrid-acting"],
+        default=None,
+        help="who labels the imitation phase: the privileged scripted retriever, the hybrid 4x4 "
+        "planner on the current network (expert iteration), or that planner acting and labelling "
+        "(the value learns the planner's own returns; collector single)",
+    )
+    t.add_argument(
+        "--start-stage",
+        type=int,
+        choices=[1, 2, 3],
+        default=None,
+        help="curriculum stage of a new run (e.g. 2 when continuing a net that passed stage 1)",
+    )
+    t.add_argument(
+        "--promotion-eval-tasks",
+        type=COUNT,
+        default=None,
+        help="validation tasks of the hybrid promotion check (presets: 30; its 95 %% interval is about +-15 points, 100 tasks about +-8)",
+    )
+    t.add_argument(
+        "--replay-stage-workers",
+        type=NON_NEGATIVE,
+        default=None,
+        help="collector workers that keep collecting the previous stage after a promotion (or below --start-stage)",
+    )
+    t.add_argument(
+        "--init-weights",
+        default=None,
+        help="start a new run from these weights: a weights file (e.g. a run's weights_warmstart.pt) "
+        "or a shipped name (occnet, occnet-noheatmap); used by the cpu-finetune preset",
+    )
     t.add_argument("--checkpoint-every", type=POSITIVE, default=300.0, help="seconds between checkpoints")
     t.add_argument("--no-progress", action="store_true")
     t.set_defaults(func=_train)
@@ -430,28 +519,51 @@ def main(argv: list[str] | None = None) -> int:
     e.add_argument("--method", help="hybrid-2x2, hybrid-4x4, hybrid-6x6, hybrid-lim-4x4, greedy, stochastic, stochastic-gen, scripted")
     e.add_argument("--sweep", action="store_true", help="the papers' clutter and noise sweeps (resumable; --out is a folder)")
     e.add_argument("--methods", default=None, help="comma-separated methods for --sweep (default: all but scripted)")
-    e.add_argument("--chunk", type=COUNT, default=None,
-                   help="with --sweep: rounds of this many tasks (every point gets them before any gets more), so an "
-                        "interrupted sweep leaves a complete figure; cached points are extended, never recomputed")
+    e.add_argument(
+        "--chunk",
+        type=COUNT,
+        default=None,
+        help="with --sweep: rounds of this many tasks (every point gets them before any gets more), so an "
+        "interrupted sweep leaves a complete figure; cached points are extended, never recomputed",
+    )
     e.add_argument("--stage", type=int, default=1, choices=[1, 2, 3])
-    e.add_argument("--objects", default=None,
-                   help="object count per task: a number, or a range like 1-10 (each task draws its count from its seed)")
-    e.add_argument("--world", choices=["pymunk", "mujoco"], default="pymunk",
-                   help="execution env: the 2D pymunk world or the 3D MuJoCo shelf (planners still plan in pymunk)")
+    e.add_argument(
+        "--objects", default=None, help="object count per task: a number, or a range like 1-10 (each task draws its count from its seed)"
+    )
+    e.add_argument(
+        "--world",
+        choices=["pymunk", "mujoco"],
+        default="pymunk",
+        help="execution env: the 2D pymunk world or the 3D MuJoCo shelf (planners still plan in pymunk)",
+    )
     e.add_argument("--noise", type=NOISE, default=0.0)
     e.add_argument("--tasks", type=COUNT, default=200, help="tasks per point (the paper uses 300 for sweeps)")
     e.add_argument("--seed", type=SEED, default=10_000_000, help="first task seed (held-out range by default)")
     e.add_argument("--batch", type=COUNT, default=16, help="worlds stepped together (policies; planners use 1)")
     e.add_argument("--workers", type=COUNT, default=1, help="processes (or Ray actors) to spread tasks over")
-    e.add_argument("--backend", choices=["local", "ray"], default="local",
-                   help="local processes or Ray actors (results are the same for the same seeds)")
+    e.add_argument(
+        "--backend",
+        choices=["local", "ray"],
+        default="local",
+        help="local processes or Ray actors (results are the same for the same seeds)",
+    )
     e.add_argument("--ray-address", default=None, help="with --backend ray: join this Ray cluster (default: a local runtime)")
-    e.add_argument("--weights", default=None, help="network weights file, or a shipped network's name (occnet-ei), instead of the method's default")
-    e.add_argument("--rollout-min-scale", type=SCALE, default=0.0,
-                   help="hybrid planners: floor on the roll-out policy's standard deviation (default 0: the policy's own, as in the paper)")
+    e.add_argument(
+        "--weights", default=None, help="network weights file, or a shipped network's name (occnet-ei), instead of the method's default"
+    )
+    e.add_argument(
+        "--rollout-min-scale",
+        type=SCALE,
+        default=0.0,
+        help="hybrid planners: floor on the roll-out policy's standard deviation (default 0: the policy's own, as in the paper)",
+    )
     e.add_argument("--out", default=None, help="write the results as JSON")
-    e.add_argument("--format", choices=["text", "markdown", "csv"], default="text",
-                   help="how to print the summary: a sentence, a Markdown table or CSV")
+    e.add_argument(
+        "--format",
+        choices=["text", "markdown", "csv"],
+        default="text",
+        help="how to print the summary: a sentence, a Markdown table or CSV",
+    )
     e.add_argument("--no-progress", action="store_true")
     e.set_defaults(func=_eval)
 
@@ -460,8 +572,9 @@ def main(argv: list[str] | None = None) -> int:
     x.add_argument("--name", required=True, help="occnet, occnet-noheatmap or occnet-ei")
     x.add_argument("--preset", required=True, help="the training preset the run used")
     x.add_argument("--seed", type=SEED, default=0)
-    x.add_argument("--weights", default=None,
-                   help="weights file in the run folder (default weights.pt, the latest; e.g. weights_warmstart.pt)")
+    x.add_argument(
+        "--weights", default=None, help="weights file in the run folder (default weights.pt, the latest; e.g. weights_warmstart.pt)"
+    )
     x.add_argument("--dest", default=None, help="write into this folder instead of the package's pretrained/ (for trying it out)")
     x.set_defaults(func=_export)
 

@@ -56,8 +56,10 @@ def require_ray(what: str = "the Ray backend"):
         'ray'
     """
     if not ray_available():
-        raise ImportError(f"{what} needs the optional dependency ray: pip install \"occrl[ray]\" "
-                          "(or choose the 'single' / 'multi' collector, the local eval backend)")
+        raise ImportError(
+            f'{what} needs the optional dependency ray: pip install "occrl[ray]" '
+            "(or choose the 'single' / 'multi' collector, the local eval backend)"
+        )
     import ray
 
     return ray
@@ -121,6 +123,12 @@ def is_worker_death(err: BaseException) -> bool:
         return False
     from ray import exceptions as rex
 
-    kinds = tuple(k for k in (getattr(rex, n, None) for n in ("RayActorError", "ActorDiedError", "ActorUnavailableError",
-                                                               "WorkerCrashedError", "NodeDiedError")) if k is not None)
+    kinds = tuple(
+        k
+        for k in (
+            getattr(rex, n, None)
+            for n in ("RayActorError", "ActorDiedError", "ActorUnavailableError", "WorkerCrashedError", "NodeDiedError")
+        )
+        if k is not None
+    )
     return isinstance(err, kinds)

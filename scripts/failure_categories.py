@@ -43,9 +43,13 @@ def categorise(td) -> dict:
         category = "detected, never held"
     else:
         category = "held, not out"
-    return {"category": category, "first_detected": int(np.argmax(detected)) if detected.any() else None,
-            "detected_share": float(detected.mean()), "outside_share": float(outside.mean()),
-            "target_depth_m": float(td["privileged", "target_pose"][0, 0, 1])}
+    return {
+        "category": category,
+        "first_detected": int(np.argmax(detected)) if detected.any() else None,
+        "detected_share": float(detected.mean()),
+        "outside_share": float(outside.mean()),
+        "target_depth_m": float(td["privileged", "target_pose"][0, 0, 1]),
+    }
 
 
 def main() -> None:
@@ -66,8 +70,11 @@ def main() -> None:
         facts = categorise(rollout_tasks(method, d["stage"], [seed], d["noise"]))
         counts[facts["category"]] += 1
         outside.append(facts["outside_share"])
-        print(f"seed {seed}: {facts['category']:22s} first seen at step {facts['first_detected']}, seen on "
-              f"{facts['detected_share']:.0%} of steps, gripper outside on {facts['outside_share']:.0%}, target depth {facts['target_depth_m']:.2f} m", flush=True)
+        print(
+            f"seed {seed}: {facts['category']:22s} first seen at step {facts['first_detected']}, seen on "
+            f"{facts['detected_share']:.0%} of steps, gripper outside on {facts['outside_share']:.0%}, target depth {facts['target_depth_m']:.2f} m",
+            flush=True,
+        )
     print(f"{d['method']} stage {d['stage']}: {len(failed)} failures replayed: " + ", ".join(f"{k} {v}" for k, v in counts.most_common()))
     outside = np.array(outside)
     print(f"gripper outside the shelf on >= 90 % of the steps in {(outside >= 0.9).sum()} of {len(failed)} failures")

@@ -33,11 +33,15 @@ def main() -> None:
     np.set_printoptions(precision=1, suppress=True)
     for t, decision in enumerate(method.policy.decisions):
         result = decision.result
-        print(f"step {t}: gripper y {float(td['gripper_pose'][0, t, 1]):+.3f} m, {len(decision.roots)} root(s), "
-              f"root {decision.chosen_root} chosen, action {decision.action}")
+        print(
+            f"step {t}: gripper y {float(td['gripper_pose'][0, t, 1]):+.3f} m, {len(decision.roots)} root(s), "
+            f"root {decision.chosen_root} chosen, action {decision.action}"
+        )
         for r in range(result.returns.shape[0]):
             spread = result.returns[r].max() - result.returns[r].min()
-            print(f"    root {r}: returns {result.returns[r]} (spread {spread:.1f}), first forward commands {result.first_actions[r, :, 0]}")
+            print(
+                f"    root {r}: returns {result.returns[r]} (spread {spread:.1f}), first forward commands {result.first_actions[r, :, 0]}"
+            )
 
 
 if __name__ == "__main__":

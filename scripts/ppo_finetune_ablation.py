@@ -23,8 +23,10 @@ import numpy as np
 BC = {"ppo_bc_coeff": 1.0, "ppo_bc_min_scale": 0.01}  # the expert term as first tried
 VARIANTS: dict[str, tuple[str, dict]] = {
     "preset": ("cpu-finetune as shipped (no expert term)", {}),
-    "bn-refresh-lr0": ("batch-norm refresh on (400 frames), learning rate 0",
-                       {"batch_norm_frames": 400, "lr": 0.0, "ppo_bc_coeff": 0.5, "ppo_bc_min_scale": 0.1}),
+    "bn-refresh-lr0": (
+        "batch-norm refresh on (400 frames), learning rate 0",
+        {"batch_norm_frames": 400, "lr": 0.0, "ppo_bc_coeff": 0.5, "ppo_bc_min_scale": 0.1},
+    ),
     "bc1-floor0.01": ("+ expert term: its negative log-likelihood on the batch, x1, spread floor 0.01", BC),
     "bc0.5-floor0.1": ("+ expert term x0.5, spread floor 0.1 (the warm start's)", {"ppo_bc_coeff": 0.5, "ppo_bc_min_scale": 0.1}),
     "bc1-freeze-scale": ("+ expert term x1, no gradient to the spread outputs", {**BC, "freeze_policy_scale": True}),
@@ -40,8 +42,14 @@ def run(name: str, out: Path, iterations: int) -> None:
     metrics = folder / "metrics.jsonl"
     if metrics.exists() and len(metrics.read_text().splitlines()) >= iterations:
         return
-    trainer = Trainer(get_train_config("cpu-finetune", **VARIANTS[name][1]), folder, seed=0, progress=True,
-                      init_weights=pretrained_path("occnet"), tensorboard=False)
+    trainer = Trainer(
+        get_train_config("cpu-finetune", **VARIANTS[name][1]),
+        folder,
+        seed=0,
+        progress=True,
+        init_weights=pretrained_path("occnet"),
+        tensorboard=False,
+    )
     try:
         trainer.train(iterations=iterations)
     finally:
@@ -55,8 +63,7 @@ def table(out: Path) -> None:
         path = out / name / "metrics.jsonl"
         if not path.exists():
             continue
-        rows = sorted({r["iteration"]: r for r in map(json.loads, path.read_text().splitlines())}.values(),
-                      key=lambda r: r["iteration"])
+        rows = sorted({r["iteration"]: r for r in map(json.loads, path.read_text().splitlines())}.values(), key=lambda r: r["iteration"])
         succ = {r["iteration"]: r["success_rate"] for r in rows}
         cells = []
         for lo, hi in ((1, 10), (11, 20), (21, 30), (31, 40)):

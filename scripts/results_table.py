@@ -22,13 +22,17 @@ GRID_COLUMNS = [(1, 0.0), (2, 0.0), (3, 0.0), (1, 0.15), (2, 0.15), (3, 0.15)]
 def row(d: dict) -> str:
     lo, hi = d["success_ci95"]
     where = f"{d.get('world', 'pymunk')}, stage {d['stage']}" + (f", objects {d['objects']}" if d.get("objects") else "")
-    return (f"| {d['method']} | {Path(str(d['network'])).name if d['network'] else '-'} | {where} | noise {d['noise']} | {d['tasks']} | "
-            f"{d['success_rate']:.1%} ({lo:.1%}-{hi:.1%}) | {d['dropped']} | {d['mean_actions']:.1f} | {d['mean_seconds']:.2f} s |")
+    return (
+        f"| {d['method']} | {Path(str(d['network'])).name if d['network'] else '-'} | {where} | noise {d['noise']} | {d['tasks']} | "
+        f"{d['success_rate']:.1%} ({lo:.1%}-{hi:.1%}) | {d['dropped']} | {d['mean_actions']:.1f} | {d['mean_seconds']:.2f} s |"
+    )
 
 
 def rows_table(results: list[dict]) -> str:
-    lines = ["| method | network | tasks from | noise | tasks | success (95 % CI) | dropped | actions | time per task |",
-             "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+    lines = [
+        "| method | network | tasks from | noise | tasks | success (95 % CI) | dropped | actions | time per task |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+    ]
     return "\n".join(lines + [row(d) for d in results]) + "\n"
 
 
@@ -39,8 +43,10 @@ def grid_table(results: list[dict]) -> str:
         if d.get("world", "pymunk") != "pymunk" or d.get("objects") or str(d["network"]).endswith(".pt"):
             continue
         cells.setdefault(d["method"], {})[(d["stage"], d["noise"])] = d
-    lines = ["| method | " + " | ".join(f"stage {s}, noise {n:g}" for s, n in GRID_COLUMNS) + " |",
-             "| --- |" + " --- |" * len(GRID_COLUMNS)]
+    lines = [
+        "| method | " + " | ".join(f"stage {s}, noise {n:g}" for s, n in GRID_COLUMNS) + " |",
+        "| --- |" + " --- |" * len(GRID_COLUMNS),
+    ]
     for m in GRID_METHODS:
         out = []
         for c in GRID_COLUMNS:
@@ -49,7 +55,9 @@ def grid_table(results: list[dict]) -> str:
                 out.append("not run")
                 continue
             lo, hi = d["success_ci95"]
-            out.append(f"{d['success_rate'] * 100:.1f} % ({lo * 100:.1f}-{hi * 100:.1f})" + (f", {d['dropped']} dropped" if d["dropped"] else ""))
+            out.append(
+                f"{d['success_rate'] * 100:.1f} % ({lo * 100:.1f}-{hi * 100:.1f})" + (f", {d['dropped']} dropped" if d["dropped"] else "")
+            )
         lines.append(f"| {m} | " + " | ".join(out) + " |")
     return "\n".join(lines) + "\n"
 

@@ -28,8 +28,13 @@ def main() -> None:
     runs: dict[int, list[tuple[str, set[int], float]]] = defaultdict(list)
     for path in args.files:
         d = json.loads(path.read_text())
-        if (d.get("world", "pymunk") != "pymunk" or d.get("objects") or d.get("noise", 0.0) != 0.0
-                or d.get("first_seed") != args.first_seed or d.get("tasks") != args.tasks):
+        if (
+            d.get("world", "pymunk") != "pymunk"
+            or d.get("objects")
+            or d.get("noise", 0.0) != 0.0
+            or d.get("first_seed") != args.first_seed
+            or d.get("tasks") != args.tasks
+        ):
             continue
         solved = {e["seed"] for e in d["episodes"] if e["success"]}
         network = Path(str(d["network"])).name if d.get("network") else "-"

@@ -76,22 +76,36 @@ def claims(table) -> list[tuple[str, str, str]]:
         verdict = "agrees within the intervals (no baseline clearly higher anywhere)"
     else:
         verdict = f"disagrees ({clearly_lower} pair{'s' if clearly_lower != 1 else ''} clearly lower)"
-    out.append(("hybrid (4x4) beats every baseline",
-                f"{wins} of {total} (point, baseline) pairs higher, {ties} equal, {losses} lower; {clear} clearly higher",
-                verdict if total else "not run"))
+    out.append(
+        (
+            "hybrid (4x4) beats every baseline",
+            f"{wins} of {total} (point, baseline) pairs higher, {ties} equal, {losses} lower; {clear} clearly higher",
+            verdict if total else "not run",
+        )
+    )
     # 2. larger m x h helps
     means = common_means(table, ("hybrid-2x2", "hybrid-4x4", "hybrid-6x6"))
     if means:
         order = means["hybrid-2x2"] <= means["hybrid-4x4"] <= means["hybrid-6x6"]
-        out.append(("larger m x h helps", ", ".join(f"{m} {pct(v)}" for m, v in means.items()) + " (mean over the points all three ran)",
-                    "agrees" if order else ("partly" if means["hybrid-2x2"] <= max(means["hybrid-4x4"], means["hybrid-6x6"]) else "disagrees")))
+        out.append(
+            (
+                "larger m x h helps",
+                ", ".join(f"{m} {pct(v)}" for m, v in means.items()) + " (mean over the points all three ran)",
+                "agrees" if order else ("partly" if means["hybrid-2x2"] <= max(means["hybrid-4x4"], means["hybrid-6x6"]) else "disagrees"),
+            )
+        )
     # 3. hybrid-lim slightly below hybrid
     pair = common_means(table, ("hybrid-lim-4x4", "hybrid-4x4"))
     if pair:
         lim, full = pair["hybrid-lim-4x4"], pair["hybrid-4x4"]
         d = full - lim
-        out.append(("hybrid-lim is slightly below hybrid", f"hybrid-4x4 {pct(full)} vs hybrid-lim-4x4 {pct(lim)} (difference {100 * d:+.1f} points)",
-                    "agrees" if 0 < d <= 0.1 else ("disagrees" if d <= 0 else "below by more than slightly")))
+        out.append(
+            (
+                "hybrid-lim is slightly below hybrid",
+                f"hybrid-4x4 {pct(full)} vs hybrid-lim-4x4 {pct(lim)} (difference {100 * d:+.1f} points)",
+                "agrees" if 0 < d <= 0.1 else ("disagrees" if d <= 0 else "below by more than slightly"),
+            )
+        )
     # 4. stochastic beats greedy at low noise, they converge at high noise
     s, g = table.get(("noise", "stochastic"), {}), table.get(("noise", "greedy"), {})
     common = sorted(set(s) & set(g))
@@ -100,18 +114,27 @@ def claims(table) -> list[tuple[str, str, str]]:
         d_low = s[low]["success_rate"] - g[low]["success_rate"]
         d_high = s[high]["success_rate"] - g[high]["success_rate"]
         ok = d_low > 0 and abs(d_high) < abs(d_low)
-        out.append(("stochastic beats greedy at low noise; they converge at high noise",
-                    f"stochastic - greedy: {100 * d_low:+.1f} points at noise {low:g}, {100 * d_high:+.1f} at noise {high:g}",
-                    "agrees" if ok else "disagrees"))
+        out.append(
+            (
+                "stochastic beats greedy at low noise; they converge at high noise",
+                f"stochastic - greedy: {100 * d_low:+.1f} points at noise {low:g}, {100 * d_high:+.1f} at noise {high:g}",
+                "agrees" if ok else "disagrees",
+            )
+        )
     # 5. hierarchical drops sharpest
     for sweep in ("clutter", "noise"):
         slopes = {m: slope(table, sweep, m) for m in {m for (sw, m) in table if sw == sweep}}
         slopes = {m: v for m, v in slopes.items() if v is not None}
         if "hierarchical" in slopes and len(slopes) > 1:
             steepest = min(slopes, key=slopes.get)
-            out.append((f"hierarchical drops sharpest ({sweep})",
-                        "fitted change of success over the axis: " + ", ".join(f"{m} {100 * v:+.0f}" for m, v in sorted(slopes.items(), key=lambda kv: kv[1])),
-                        "agrees" if steepest == "hierarchical" else f"disagrees (steepest: {steepest})"))
+            out.append(
+                (
+                    f"hierarchical drops sharpest ({sweep})",
+                    "fitted change of success over the axis: "
+                    + ", ".join(f"{m} {100 * v:+.0f}" for m, v in sorted(slopes.items(), key=lambda kv: kv[1])),
+                    "agrees" if steepest == "hierarchical" else f"disagrees (steepest: {steepest})",
+                )
+            )
     # 6. success falls with clutter and noise
     for sweep in ("clutter", "noise"):
         falls = []
@@ -121,9 +144,13 @@ def claims(table) -> list[tuple[str, str, str]]:
                 falls.append((m, pts[lo]["success_rate"], pts[hi]["success_rate"]))
         if falls:
             n_fall = sum(b < a for _, a, b in falls)
-            out.append((f"success falls with {sweep}",
-                        "; ".join(f"{m} {pct(a)} -> {pct(b)}" for m, a, b in falls),
-                        "agrees" if n_fall == len(falls) else f"{n_fall} of {len(falls)} methods fall"))
+            out.append(
+                (
+                    f"success falls with {sweep}",
+                    "; ".join(f"{m} {pct(a)} -> {pct(b)}" for m, a, b in falls),
+                    "agrees" if n_fall == len(falls) else f"{n_fall} of {len(falls)} methods fall",
+                )
+            )
     return out
 
 
@@ -152,8 +179,10 @@ def main() -> None:
     table = load(args.results)
     tasks = sorted({r["tasks"] for pts in table.values() for r in pts.values()})
     half = [(r["ci95_high"] - r["ci95_low"]) / 2 for pts in table.values() for r in pts.values()]
-    print(f"tasks per point: {', '.join(map(str, tasks))}; 95 % interval half-width: median {100 * np.median(half):.1f} "
-          f"points, largest {100 * max(half):.1f}\n")
+    print(
+        f"tasks per point: {', '.join(map(str, tasks))}; 95 % interval half-width: median {100 * np.median(half):.1f} "
+        f"points, largest {100 * max(half):.1f}\n"
+    )
     print("| claim (papers) | this sweep | verdict |")
     print("| --- | --- | --- |")
     for claim, figures, verdict in claims(table):

@@ -39,9 +39,11 @@ def main() -> None:
     success = data.get(("next", "success")).squeeze(-1).numpy()
     every = [bool(success[b, t]) for b in range(done.shape[0]) for t in np.flatnonzero(done[b])]
     first = episode_stats(data)["success"]
-    print(f"{args.weights}, stage {args.stage}, {args.envs} worlds x {C.MAX_EPISODE_STEPS} steps: "
-          f"every finished episode {np.mean(every):.1%} ({len(every)} episodes), "
-          f"first episode per world {np.mean(first):.1%} ({len(first)} episodes)")
+    print(
+        f"{args.weights}, stage {args.stage}, {args.envs} worlds x {C.MAX_EPISODE_STEPS} steps: "
+        f"every finished episode {np.mean(every):.1%} ({len(every)} episodes), "
+        f"first episode per world {np.mean(first):.1%} ({len(first)} episodes)"
+    )
 
 
 if __name__ == "__main__":

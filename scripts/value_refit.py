@@ -52,8 +52,14 @@ def collect(weights: str | None, per_stage: int, batch: int = 64) -> list[dict]:
             terminated = td["next", "terminated"][..., 0]
             for b in range(len(seeds)):
                 end = int(torch.nonzero(done[b])[0]) if done[b].any() else reward.shape[1] - 1
-                episodes.append({"stage": stage, "belief": belief[b, : end + 1].clone(), "reward": reward[b, : end + 1].clone(),
-                                 "terminated": bool(terminated[b, end])})
+                episodes.append(
+                    {
+                        "stage": stage,
+                        "belief": belief[b, : end + 1].clone(),
+                        "reward": reward[b, : end + 1].clone(),
+                        "terminated": bool(terminated[b, end]),
+                    }
+                )
             print(f"stage {stage}: {start + len(seeds)} episodes collected ({time.time() - start_time:.0f} s)", flush=True)
     return episodes
 
@@ -82,8 +88,11 @@ def report(head, episodes: list[dict], ys: list[torch.Tensor], label: str) -> No
         idx = [i for i, ep in enumerate(episodes) if ep["stage"] == stage]
         v = torch.cat([value_of(head, episodes[i]["belief"]) for i in idx]).numpy()
         y = torch.cat([ys[i] for i in idx]).numpy()
-        print(f"{label:16s} stage {stage}: correlation {np.corrcoef(v, y)[0, 1]:.2f}, explained variance "
-              f"{1 - np.var(y - v) / np.var(y):.2f} (mean value {v.mean():.1f}, mean return {y.mean():.1f})", flush=True)
+        print(
+            f"{label:16s} stage {stage}: correlation {np.corrcoef(v, y)[0, 1]:.2f}, explained variance "
+            f"{1 - np.var(y - v) / np.var(y):.2f} (mean value {v.mean():.1f}, mean return {y.mean():.1f})",
+            flush=True,
+        )
 
 
 def main() -> None:

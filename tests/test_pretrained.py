@@ -27,6 +27,23 @@ def test_occnet_ei_is_occnet_trained_further_and_the_cli_takes_its_name(tmp_path
     ei, base = load_pretrained("occnet-ei").state_dict(), load_pretrained("occnet").state_dict()
     assert ei.keys() == base.keys() and not all(torch.equal(ei[k], base[k]) for k in base)
     out = tmp_path / "r.json"
-    assert main(["eval", "--method", "stochastic-gen", "--weights", "occnet-ei", "--objects", "1-1", "--tasks", "1",
-                 "--out", str(out), "--no-progress"]) == 0
+    assert (
+        main(
+            [
+                "eval",
+                "--method",
+                "stochastic-gen",
+                "--weights",
+                "occnet-ei",
+                "--objects",
+                "1-1",
+                "--tasks",
+                "1",
+                "--out",
+                str(out),
+                "--no-progress",
+            ]
+        )
+        == 0
+    )
     assert json.loads(out.read_text())["network"] == "occnet-ei"

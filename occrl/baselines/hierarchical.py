@@ -171,7 +171,14 @@ class HierarchicalPlanner(TensorDictModuleBase):
     """
 
     in_keys = [
-        "is_init", "gripper_pose", "gripper_opening", "gripper_closed", "objects", "target_type", "target_vertices", "target_num_vertices",
+        "is_init",
+        "gripper_pose",
+        "gripper_opening",
+        "gripper_closed",
+        "objects",
+        "target_type",
+        "target_vertices",
+        "target_num_vertices",
     ]
     out_keys = ["action"]
 
@@ -448,12 +455,14 @@ class HierarchicalPlanner(TensorDictModuleBase):
         if plan.success:
             logger.info(
                 "%s plan: %d actions (OMPL path %d) in %.2f s, %d propagations",
-                plan.name, len(plan.actions), plan.raw_length, elapsed, plan.propagations,
+                plan.name,
+                len(plan.actions),
+                plan.raw_length,
+                elapsed,
+                plan.propagations,
             )
         else:
-            logger.warning(
-                "%s plan not found within %.2f s (%s, %d propagations)", plan.name, seconds, plan.status, plan.propagations
-            )
+            logger.warning("%s plan not found within %.2f s (%s, %d propagations)", plan.name, seconds, plan.status, plan.propagations)
         return plan
 
     def _query_world(self, ep: _Episode, state: RecreatedState, ids: list[int], tid: int | None, query: str):

@@ -62,7 +62,18 @@ except ImportError:  # pragma: no cover - the baseline needs OMPL
 
 from occrl.baselines.hiding import HidingRegion, _probe_points
 
-__all__ = ["SimControlProblem", "PlanResult", "ReachGoal", "HoldGoal", "grasp_poses", "steer_action", "ompl_seed", "OPEN", "CLOSE", "WALL_TOLERANCE"]
+__all__ = [
+    "SimControlProblem",
+    "PlanResult",
+    "ReachGoal",
+    "HoldGoal",
+    "grasp_poses",
+    "steer_action",
+    "ompl_seed",
+    "OPEN",
+    "CLOSE",
+    "WALL_TOLERANCE",
+]
 
 logger = logging.getLogger("occrl.baselines.hierarchical")
 

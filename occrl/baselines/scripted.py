@@ -183,7 +183,9 @@ def plan_grasp(
         ok = (xmin - cs > -slack) & (xmax - cs < slack) & (xmin - cs < -0.003) & (xmax - cs > 0.003)
         if not ok.any():
             continue
-        grasps = centre + np.stack([cs, np.full_like(cs, -grasp_y)], 1) @ np.array([[math.cos(a), math.sin(a)], [-math.sin(a), math.cos(a)]])
+        grasps = centre + np.stack([cs, np.full_like(cs, -grasp_y)], 1) @ np.array(
+            [[math.cos(a), math.sin(a)], [-math.sin(a), math.cos(a)]]
+        )
         # finger corridor in the approach frame (centred on the target): x in [c - h, c + h],
         # y from where the fingertips leave the shelf to the fingertips at the grasp pose
         out = np.array([_way_out(g, a) for g in grasps])

@@ -218,4 +218,3 @@ class ShelfRetrievalVectorEnv(VectorEnv):
 
     def close_extras(self, **kwargs) -> None:
         self._env.close()
-

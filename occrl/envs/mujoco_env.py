@@ -113,7 +113,14 @@ class MujocoShelfEnv(ShelfEnv):
         self.record_camera = bool(record_camera)
         self.visibility = self._pick_visibility(visibility)
         super().__init__(
-            batch_size=batch_size, stage=stage, noise=noise, seed=seed, scenes=scenes, num_objects=num_objects, max_steps=max_steps, device=device
+            batch_size=batch_size,
+            stage=stage,
+            noise=noise,
+            seed=seed,
+            scenes=scenes,
+            num_objects=num_objects,
+            max_steps=max_steps,
+            device=device,
         )
 
     def _pick_visibility(self, requested: str) -> str:

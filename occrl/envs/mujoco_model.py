@@ -137,8 +137,15 @@ def build_mjcf(scene: Scene, camera: CameraConfig, object_height=OBJECT_HEIGHT_R
     hand.add("camera", name="wrist", pos=(0, 0, CAMERA_Z - HAND_Z), xyaxes=(1, 0, 0, 0, 0, 1), fovy=camera.fovy_degrees)
     half = C.GRIPPER_STROKE / 2
     fh = FINGER_HALF_HEIGHT
-    pad = dict(rgba=(0.15, 0.15, 0.15, 1.0), group=2, friction=(FINGER_FRICTION, 0.01, 0.0005), condim=6, priority=2,
-               solref=FINGER_SOLREF, solimp=FINGER_SOLIMP)
+    pad = dict(
+        rgba=(0.15, 0.15, 0.15, 1.0),
+        group=2,
+        friction=(FINGER_FRICTION, 0.01, 0.0005),
+        condim=6,
+        priority=2,
+        solref=FINGER_SOLREF,
+        solimp=FINGER_SOLIMP,
+    )
     for side, sign in (("left", -1.0), ("right", 1.0)):
         f = hand.add("body", name=f"finger_{side}")
         f.add("joint", name=f"finger_{side}", type="slide", axis=(sign, 0, 0), range=(0.0, half), armature=0.001, damping=2.0)
@@ -155,7 +162,12 @@ def build_mjcf(scene: Scene, camera: CameraConfig, object_height=OBJECT_HEIGHT_R
     act.add("position", name="hand_th", joint="hand_th", kp=TURN_KP, kv=TURN_KV, ctrlrange=tl, forcerange=(-tq, tq))
     for side in ("left", "right"):  # one command drives both: they close in step, centring the object
         act.add(
-            "position", name=f"finger_{side}", joint=f"finger_{side}", kp=FINGER_KP, kv=FINGER_KV,
-            ctrlrange=(FINGER_CLOSED_TARGET, half), forcerange=(-FINGER_FORCE, FINGER_FORCE),
+            "position",
+            name=f"finger_{side}",
+            joint=f"finger_{side}",
+            kp=FINGER_KP,
+            kv=FINGER_KV,
+            ctrlrange=(FINGER_CLOSED_TARGET, half),
+            forcerange=(-FINGER_FORCE, FINGER_FORCE),
         )
     return root

@@ -76,7 +76,7 @@ class MujocoWorld:
         self.padded_vertices = np.zeros((self.num_objects, C.MAX_VERTICES, 2))
         for i, o in enumerate(scene.objects):
             self.padded_vertices[i, : len(o.vertices)] = o.vertices
-            self.padded_vertices[i, len(o.vertices):] = o.vertices[0]
+            self.padded_vertices[i, len(o.vertices) :] = o.vertices[0]
         self.heights = np.array([type_height(int(t), object_height) for t in self.type_ids])
 
         self.mjcf_model = build_mjcf(scene, camera, object_height)

@@ -164,5 +164,3 @@ def observation_from_detections(
         },
         batch_size=(1,),
     )
-
-

@@ -91,7 +91,13 @@ def make_env(
     else:
         raise ValueError(f"backend must be 'pymunk' or 'mujoco', got {backend!r}")
     base = env_cls(
-        batch_size=batch_size, stage=stage, noise=noise, seed=seed, scenes=scenes, num_objects=num_objects, max_steps=max_steps,
+        batch_size=batch_size,
+        stage=stage,
+        noise=noise,
+        seed=seed,
+        scenes=scenes,
+        num_objects=num_objects,
+        max_steps=max_steps,
         **env_kwargs,
     )
     transforms = [InitTracker(), StepCounter()]

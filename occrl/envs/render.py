@@ -24,7 +24,17 @@ from occrl.envs.geometry import transform_points
 from occrl.envs.visibility import _pad, angular_extents
 from occrl.envs.world import gripper_polygons, wall_polygons
 
-__all__ = ["Canvas", "LABELS", "PALETTE", "render_labels", "render_true_scene", "labels_to_rgb", "labels_to_pixels", "DEFAULT_CANVAS", "SHELF_VIEW"]
+__all__ = [
+    "Canvas",
+    "LABELS",
+    "PALETTE",
+    "render_labels",
+    "render_true_scene",
+    "labels_to_rgb",
+    "labels_to_pixels",
+    "DEFAULT_CANVAS",
+    "SHELF_VIEW",
+]
 
 LABELS = {"observable": 0, "occluded": 1, "wall": 2, "edge": 3, "clutter": 4, "target": 5, "gripper": 6}
 PALETTE = np.array(

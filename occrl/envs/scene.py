@@ -222,8 +222,7 @@ class Scene:
     def to_objects(self) -> list[dict]:
         """The inverse of :meth:`from_objects` (centroid frames)."""
         return [
-            {"vertices": o.vertices.tolist(), "pose": tuple(o.pose), "is_target": o.is_target, "type_id": o.type_id}
-            for o in self.objects
+            {"vertices": o.vertices.tolist(), "pose": tuple(o.pose), "is_target": o.is_target, "type_id": o.type_id} for o in self.objects
         ]
 
 
@@ -293,8 +292,7 @@ def validate_objects(objects: Sequence[SceneObject]) -> None:
         width = min_width(o.vertices)
         if width > C.GRIPPER_STROKE:
             raise ValueError(
-                f"object {i}: no side fits the gripper's {C.GRIPPER_STROKE * 1000:.0f} mm stroke "
-                f"(narrowest width {width * 1000:.1f} mm)"
+                f"object {i}: no side fits the gripper's {C.GRIPPER_STROKE * 1000:.0f} mm stroke (narrowest width {width * 1000:.1f} mm)"
             )
         wv = o.world_vertices()
         lo, hi = wv.min(axis=0), wv.max(axis=0)
@@ -361,7 +359,7 @@ def _place_objects(rng: np.random.Generator, n: int, target_y: tuple[float, floa
         r = float(np.linalg.norm(verts, axis=1).max())
         m = r + PLACEMENT_CLEARANCE
         mw = r + WALL_CLEARANCE
-        ylo, yhi = (target_y if is_target else (0.0, C.SHELF_DEPTH))
+        ylo, yhi = target_y if is_target else (0.0, C.SHELF_DEPTH)
         ylo, yhi = max(ylo, m), min(yhi, C.SHELF_DEPTH - mw)
         xmax = C.SHELF_HALF_WIDTH - (max(mw, TARGET_SIDE_CLEARANCE) if is_target else mw)
         for _ in range(_MAX_PLACEMENT_TRIES):

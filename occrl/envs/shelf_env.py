@@ -39,7 +39,7 @@ def pad_polygon(vertices: np.ndarray, size: int = MAX_POLY_VERTICES) -> np.ndarr
     """
     out = np.empty((size, 2), dtype=np.float32)
     out[: len(vertices)] = vertices
-    out[len(vertices):] = vertices[0]
+    out[len(vertices) :] = vertices[0]
     return out
 
 
@@ -129,12 +129,16 @@ class ShelfEnv(EnvBase):
             raise ValueError(f"stage must be one of {sorted(STAGES)}, got {stage!r}")
         if not 0.0 <= noise <= 1.0:
             raise ValueError(f"noise must be in [0, 1] (the paper uses 0 to 0.25), got {noise}")
-        if num_objects is not None and (isinstance(num_objects, bool) or not isinstance(num_objects, int) or not 1 <= num_objects <= MAX_SLOTS):
+        if num_objects is not None and (
+            isinstance(num_objects, bool) or not isinstance(num_objects, int) or not 1 <= num_objects <= MAX_SLOTS
+        ):
             raise ValueError(f"num_objects must be None or an int in [1, {MAX_SLOTS}], got {num_objects!r}")
         if isinstance(max_steps, bool) or not isinstance(max_steps, int) or max_steps < 1:
             raise ValueError(f"max_steps must be an int >= 1, got {max_steps!r}")
         seeds = seed if isinstance(seed, (list, tuple)) else [seed]
-        if not all(s is None and len(seeds) == 1 or (isinstance(s, (int, np.integer)) and not isinstance(s, bool) and s >= 0) for s in seeds):
+        if not all(
+            s is None and len(seeds) == 1 or (isinstance(s, (int, np.integer)) and not isinstance(s, bool) and s >= 0) for s in seeds
+        ):
             raise ValueError(f"seed must be None, an int >= 0 or a list of them (one per world), got {seed!r}")
         if not isinstance(physics, PhysicsSettings):
             raise TypeError(f"physics must be an occrl.envs.PhysicsSettings, got {type(physics).__name__}")
@@ -264,7 +268,10 @@ class ShelfEnv(EnvBase):
                 self._invalid[i] = True
                 logger.warning(
                     "world %d reached a physically invalid state at action %d (penetration %.1f mm, object past a wall: %s)",
-                    i, self._steps[i] + 1, 1000 * world.penetration, world.crossed_wall,
+                    i,
+                    self._steps[i] + 1,
+                    1000 * world.penetration,
+                    world.crossed_wall,
                 )
         self._steps += 1
         terminated = success | dropped

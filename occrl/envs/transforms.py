@@ -23,7 +23,6 @@ from occrl.envs.robot_frame import DEFAULT_FORWARD_OFFSET, DEFAULT_SIZE, DEFAULT
 __all__ = ["OcclusionRender", "RobotCentricCrop", "HeatmapTarget"]
 
 
-
 def _flat(td: TensorDictBase) -> TensorDictBase:
     return td.reshape(-1) if td.batch_dims != 1 else td
 

@@ -40,7 +40,7 @@ def _pad(polygons: Sequence[np.ndarray], size: int | None = None) -> np.ndarray:
     out = np.empty((len(polygons), vmax, 2))
     for k, p in enumerate(polygons):
         out[k, : len(p)] = p
-        out[k, len(p):] = p[0]
+        out[k, len(p) :] = p[0]
     return out
 
 

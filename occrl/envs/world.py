@@ -39,7 +39,15 @@ import pymunk.batch
 from pymunk._chipmunk_cffi import lib as _cp
 
 from occrl.envs import world_constants as C
-from occrl.envs.geometry import clip_to_band, convex_hull, polygon_area, polygon_centroid, polygons_overlap, transform_points, transform_polygons
+from occrl.envs.geometry import (
+    clip_to_band,
+    convex_hull,
+    polygon_area,
+    polygon_centroid,
+    polygons_overlap,
+    transform_points,
+    transform_polygons,
+)
 from occrl.envs.physics_settings import DEFAULT_PHYSICS, INVALID_PENETRATION, PhysicsSettings
 from occrl.envs.scene import Scene
 
@@ -158,7 +166,7 @@ def grasp_candidate(gripper_pose, opening: float, polygons: list[np.ndarray]) ->
     near = _near(polygons, band.mean(axis=0), math.hypot(h, C.FINGER_LENGTH / 2.0))
     touching = {i: transform_points(p, inv) for i, p in enumerate(polygons) if near[i] and polygons_overlap(p, band)}
     if len(touching) == 1:
-        (i, local), = touching.items()
+        ((i, local),) = touching.items()
         xmin, xmax = local[:, 0].min(), local[:, 0].max()
         cy = local[:, 1].mean()
         if xmin < 0.0 < xmax and 0.0 <= cy <= C.FINGER_LENGTH and xmax - xmin <= opening:
@@ -244,7 +252,7 @@ class ShelfWorld:
         self.padded_vertices = np.zeros((self.num_objects, C.MAX_VERTICES, 2))
         for i, v in enumerate(self.nominal_vertices):
             self.padded_vertices[i, : len(v)] = v
-            self.padded_vertices[i, len(v):] = v[0]
+            self.padded_vertices[i, len(v) :] = v[0]
         self.num_vertices = np.array([len(v) for v in self.nominal_vertices], dtype=np.int64)
         self.object_radius = np.array([np.linalg.norm(v, axis=1).max() for v in self.nominal_vertices])
         self.opening = C.GRIPPER_STROKE

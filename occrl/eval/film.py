@@ -44,8 +44,12 @@ def _true_panel(step: TensorDictBase) -> np.ndarray:
     slot = int(priv.get("target_slot").reshape(-1)[0])
     world = transform_polygons(verts, poses)
     idx = np.flatnonzero(present)
-    img = _shelf_picture(step.get("gripper_pose").numpy(), step.get("gripper_opening").reshape(-1)[0],
-                         [world[k, : nv[k]] for k in idx], [k == slot for k in idx])
+    img = _shelf_picture(
+        step.get("gripper_pose").numpy(),
+        step.get("gripper_opening").reshape(-1)[0],
+        [world[k, : nv[k]] for k in idx],
+        [k == slot for k in idx],
+    )
     return np.asarray(img)
 
 
@@ -112,7 +116,9 @@ def frame(step: TensorDictBase, caption: str = "", heatmap: np.ndarray | None = 
     return np.asarray(img)
 
 
-def episode_frames(rollout: TensorDictBase, heatmaps: Sequence[np.ndarray] | None = None, decisions: Sequence | None = None) -> list[np.ndarray]:
+def episode_frames(
+    rollout: TensorDictBase, heatmaps: Sequence[np.ndarray] | None = None, decisions: Sequence | None = None
+) -> list[np.ndarray]:
     """Frames of a single-episode rollout (batch dims [T]); the last frame shows the final state.
 
     With a planner's ``decisions`` (``HybridPlanner.decisions``, one per step), each frame also

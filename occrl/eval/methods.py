@@ -66,7 +66,12 @@ def make_method(name: str, weights: str | Path | None = None, seed: int = 0, rol
 
         m, h, limited = _HYBRID[name]
         net = _net("occnet", weights)
-        return Method(name, HybridPlanner(net, m=m, h=h, limited=limited, seed=seed, rollout_min_scale=rollout_min_scale), [net.make_primer()], network=str(weights or "occnet"))
+        return Method(
+            name,
+            HybridPlanner(net, m=m, h=h, limited=limited, seed=seed, rollout_min_scale=rollout_min_scale),
+            [net.make_primer()],
+            network=str(weights or "occnet"),
+        )
     if name == "hierarchical":
         from occrl.baselines.hierarchical import HierarchicalPlanner
 

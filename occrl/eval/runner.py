@@ -22,8 +22,17 @@ from torchrl.envs.utils import ExplorationType, set_exploration_type
 from occrl.envs import Scene, make_env
 from occrl.envs import world_constants as C
 
-__all__ = ["EpisodeResult", "rollout_tasks", "run_episodes", "run_tasks", "summarize", "task_scenes", "task_object_count", "wilson_interval",
-           "EVAL_SEED_BASE"]
+__all__ = [
+    "EpisodeResult",
+    "rollout_tasks",
+    "run_episodes",
+    "run_tasks",
+    "summarize",
+    "task_scenes",
+    "task_object_count",
+    "wilson_interval",
+    "EVAL_SEED_BASE",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -107,8 +116,15 @@ def wilson_interval(successes: int, n: int, z: float = 1.96) -> tuple[float, flo
     return (max(0.0, centre - half), min(1.0, centre + half))
 
 
-def seeded_task_env(policy: Callable, scenes: Sequence[Scene], seeds: Sequence[int], noise: float = 0.0,
-                    primers: Sequence = (), heatmap_target: bool = False, world: str = "pymunk"):
+def seeded_task_env(
+    policy: Callable,
+    scenes: Sequence[Scene],
+    seeds: Sequence[int],
+    noise: float = 0.0,
+    primers: Sequence = (),
+    heatmap_target: bool = False,
+    world: str = "pymunk",
+):
     """The env of a batch of tasks, with the env and the decision maker seeded by the task seeds:
     what :func:`run_episodes` runs, and what a replay of one of its episodes must build.
 
@@ -124,8 +140,9 @@ def seeded_task_env(policy: Callable, scenes: Sequence[Scene], seeds: Sequence[i
         >>> env.batch_size
         torch.Size([2])
     """
-    env = make_env(batch_size=len(scenes), scenes=list(scenes), noise=noise, seed=[int(s) for s in seeds],
-                   heatmap_target=heatmap_target, backend=world)
+    env = make_env(
+        batch_size=len(scenes), scenes=list(scenes), noise=noise, seed=[int(s) for s in seeds], heatmap_target=heatmap_target, backend=world
+    )
     for p in primers:
         env.append_transform(p.clone() if hasattr(p, "clone") else p)
     torch.manual_seed(int(seeds[0]))
@@ -253,12 +270,12 @@ def _init_worker(method: str, weights, threads: int, rollout_min_scale: float = 
 def _run_chunk(args) -> list[EpisodeResult]:
     stage, seeds, num_objects, noise, world = args
     m = _WORKER["method"]
-    return run_episodes(m.policy, task_scenes(stage, seeds, num_objects), seeds, noise, len(seeds), m.primers, m.exploration,
-                        world=world)
+    return run_episodes(m.policy, task_scenes(stage, seeds, num_objects), seeds, noise, len(seeds), m.primers, m.exploration, world=world)
 
 
-def _run_tasks_ray(method: str, weights, jobs: list, workers: int, address: str | None, bar, max_restarts: int = 2,
-                   rollout_min_scale: float = 0.0) -> list:
+def _run_tasks_ray(
+    method: str, weights, jobs: list, workers: int, address: str | None, bar, max_restarts: int = 2, rollout_min_scale: float = 0.0
+) -> list:
     """Chunks on ``workers`` Ray actors (one CPU each); a chunk whose actor died runs again on a new
     actor (chunks are seeded by their tasks, so the repeat gives the same results)."""
     from occrl.distributed import WorkerDiedError, is_worker_death, require_ray, start_ray
@@ -363,7 +380,9 @@ def run_tasks(
         import multiprocessing as mp
         from concurrent.futures import ProcessPoolExecutor, as_completed
 
-        with ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn"), initializer=_init_worker, initargs=(method, weights, 1, rollout_min_scale)) as pool:
+        with ProcessPoolExecutor(
+            workers, mp_context=mp.get_context("spawn"), initializer=_init_worker, initargs=(method, weights, 1, rollout_min_scale)
+        ) as pool:
             futures = {pool.submit(_run_chunk, job): k for k, job in enumerate(jobs)}
             for f in as_completed(futures):
                 results[futures[f]] = f.result()

@@ -52,8 +52,9 @@ def _point_path(out: Path, method: str, sweep: str, value: float) -> Path:
     return out / "points" / f"{method}__{sweep}__{value:g}.json"
 
 
-def _run_point(method: str, sweep: str, value: float, seeds: list[int], batch: int, workers: int, weights, progress: bool,
-               **backend) -> list[EpisodeResult]:
+def _run_point(
+    method: str, sweep: str, value: float, seeds: list[int], batch: int, workers: int, weights, progress: bool, **backend
+) -> list[EpisodeResult]:
     if sweep == "clutter":
         return run_tasks(method, SCENE_STAGE, seeds, 0.0, int(value), batch, workers, weights, progress, **backend)
     # noise sweep: a random object count per task; group tasks by count so scenes are sampled alike
@@ -116,18 +117,26 @@ def run_sweep(
                     path = _point_path(out, method, sweep, value)
                     done = _cached_episodes(path)
                     if done and min(done) != first_seed:
-                        raise ValueError(f"{path} holds task seeds from {min(done)}, not from {first_seed}: "
-                                         f"use another --out folder for other task seeds")
+                        raise ValueError(
+                            f"{path} holds task seeds from {min(done)}, not from {first_seed}: "
+                            f"use another --out folder for other task seeds"
+                        )
                     missing = [s for s in seeds if s not in done]
                     if not missing:
                         continue
                     b = 1 if method in PLANNERS else batch
-                    for r in _run_point(method, sweep, value, missing, b, workers, weights, progress, backend=backend,
-                                        ray_address=ray_address):
+                    for r in _run_point(
+                        method, sweep, value, missing, b, workers, weights, progress, backend=backend, ray_address=ray_address
+                    ):
                         done[r.seed] = r
                     results = [done[s] for s in sorted(done)]
-                    point = {"method": method, "sweep": sweep, "value": value, **summarize(results),
-                             "episodes": [r.to_dict() for r in results]}
+                    point = {
+                        "method": method,
+                        "sweep": sweep,
+                        "value": value,
+                        **summarize(results),
+                        "episodes": [r.to_dict() for r in results],
+                    }
                     write_text_atomic(path, json.dumps(point))  # a point is cached whole or not at all
                     logger.info("%s %s=%g (%d tasks): success %.2f", method, sweep, value, len(results), point["success_rate"])
     summarize_sweep(out)
@@ -169,8 +178,10 @@ def summarize_sweep(out: str | Path) -> list[dict]:
     out = Path(out)
     rows = []
     for p in _points(out):
-        rows.append({k: p[k] for k in ("method", "sweep", "value", "tasks", "successes", "success_rate", "dropped", "mean_actions", "mean_seconds")}
-                    | {"ci95_low": p["success_ci95"][0], "ci95_high": p["success_ci95"][1]})
+        rows.append(
+            {k: p[k] for k in ("method", "sweep", "value", "tasks", "successes", "success_rate", "dropped", "mean_actions", "mean_seconds")}
+            | {"ci95_low": p["success_ci95"][0], "ci95_high": p["success_ci95"][1]}
+        )
     rows.sort(key=lambda r: (r["sweep"], r["method"], r["value"]))
     write_text_atomic(out / "results.json", json.dumps(rows, indent=2))
     if rows:

@@ -113,7 +113,9 @@ class OccNet(nn.Module):
         self.encoder = TensorDictModule(encoder, in_keys=["pixels"], out_keys=["embed"])
         self.lstm = LSTMModule(input_size=encoder.out_features, hidden_size=config.lstm_hidden, in_key="embed", out_key="belief")
         self.trunk = TensorDictSequential(self.encoder, self.lstm)
-        head = TensorDictModule(PolicyHead(config.lstm_hidden, config.policy_hidden, config.action_dim), in_keys=["belief"], out_keys=["loc", "scale"])
+        head = TensorDictModule(
+            PolicyHead(config.lstm_hidden, config.policy_hidden, config.action_dim), in_keys=["belief"], out_keys=["loc", "scale"]
+        )
         self.actor = ProbabilisticActor(
             head,
             in_keys=["loc", "scale"],
@@ -125,7 +127,11 @@ class OccNet(nn.Module):
         self.critic = ValueOperator(ValueHead(config.lstm_hidden, config.value_hidden), in_keys=["belief"])
         if config.heatmap:
             self.heatmap_head = TensorDictSequential(
-                TensorDictModule(HeatmapHead(config.lstm_hidden, config.heatmap_channels, config.image_size), in_keys=["belief"], out_keys=["heatmap_logits"]),
+                TensorDictModule(
+                    HeatmapHead(config.lstm_hidden, config.heatmap_channels, config.image_size),
+                    in_keys=["belief"],
+                    out_keys=["heatmap_logits"],
+                ),
                 TensorDictModule(torch.sigmoid, in_keys=["heatmap_logits"], out_keys=["heatmap"]),
             )
         else:

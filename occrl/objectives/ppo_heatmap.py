@@ -134,7 +134,7 @@ class PPOHeatmapLoss(ClipPPOLoss):
 
     def forward(self, tensordict: TensorDictBase) -> TensorDict:
         if self.bc_coeff > 0 and "expert_action" not in tensordict.keys():
-            raise KeyError("bc_coeff > 0 needs \"expert_action\" in the batch (label it with occrl.training.dagger.label_with_expert)")
+            raise KeyError('bc_coeff > 0 needs "expert_action" in the batch (label it with occrl.training.dagger.label_with_expert)')
         td = tensordict.copy()
         with set_recurrent_mode(True):
             td = self.trunk(td)

@@ -136,8 +136,19 @@ class HybridPlanner(TensorDictModuleBase):
         self.rollout_min_scale = float(rollout_min_scale)
         self.generator = torch.Generator().manual_seed(int(seed))
         self.decisions: list[Decision] = []
-        self.in_keys = ["pixels", "is_init", "recurrent_state_h", "recurrent_state_c", "gripper_pose", "gripper_opening",
-                        "gripper_closed", "objects", "target_type", "target_vertices", "target_num_vertices"]
+        self.in_keys = [
+            "pixels",
+            "is_init",
+            "recurrent_state_h",
+            "recurrent_state_c",
+            "gripper_pose",
+            "gripper_opening",
+            "gripper_closed",
+            "objects",
+            "target_type",
+            "target_vertices",
+            "target_num_vertices",
+        ]
         self.out_keys = ["action", ("next", "recurrent_state_h"), ("next", "recurrent_state_c"), "heatmap"]
 
     def reseed(self, seed: int) -> None:

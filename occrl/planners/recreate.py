@@ -79,14 +79,16 @@ def recreate(obs: TensorDictBase) -> RecreatedState:
         SceneObject(int(type_id[k]), verts[k, : nv[k]], tuple(pose[k]), bool(type_id[k] == target_type)) for k in np.flatnonzero(det)
     )
     tnv = int(obs.get("target_num_vertices").reshape(-1)[0])
-    return _with_unseen_held_target(RecreatedState(
-        objects=objects,
-        gripper_pose=tuple(float(v) for v in obs.get("gripper_pose").cpu().numpy()),
-        opening=float(obs.get("gripper_opening").reshape(-1)[0]),
-        closed=bool(obs.get("gripper_closed").reshape(-1)[0]),
-        target_type=target_type,
-        target_vertices=obs.get("target_vertices").cpu().numpy().astype(float)[:tnv],
-    ))
+    return _with_unseen_held_target(
+        RecreatedState(
+            objects=objects,
+            gripper_pose=tuple(float(v) for v in obs.get("gripper_pose").cpu().numpy()),
+            opening=float(obs.get("gripper_opening").reshape(-1)[0]),
+            closed=bool(obs.get("gripper_closed").reshape(-1)[0]),
+            target_type=target_type,
+            target_vertices=obs.get("target_vertices").cpu().numpy().astype(float)[:tnv],
+        )
+    )
 
 
 HELD_MIN_OPENING = 0.005  # m: closed fingers further apart than this stopped on something

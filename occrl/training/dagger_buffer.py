@@ -34,6 +34,7 @@ class DaggerBuffer:
         >>> batch.shape, batch["pixels"].dtype, bool((batch["pixels"] == 1.0).all())
         (torch.Size([3, 5]), torch.float32, True)
     """
+
     def __init__(self, capacity: int) -> None:
         self.capacity = int(capacity)
         self.batches: list[TensorDictBase] = []
@@ -70,7 +71,10 @@ class DaggerBuffer:
 
     def save(self, path: str | Path) -> None:
         tmp = Path(str(path) + ".tmp")
-        torch.save({"capacity": self.capacity, "batches": [b.to_dict() for b in self.batches], "shapes": [list(b.shape) for b in self.batches]}, tmp)
+        torch.save(
+            {"capacity": self.capacity, "batches": [b.to_dict() for b in self.batches], "shapes": [list(b.shape) for b in self.batches]},
+            tmp,
+        )
         tmp.replace(path)
 
     def load(self, path: str | Path) -> None:

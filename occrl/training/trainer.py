@@ -162,9 +162,18 @@ class Trainer:
         1
     """
 
-    def __init__(self, config: TrainConfig, run_dir: str | Path, seed: int = 0, progress: bool = True,
-                 checkpoint_every_s: float = 300.0, tensorboard: bool = True, ray_address: str | None = None,
-                 max_worker_restarts: int = 2, init_weights: str | Path | None = None) -> None:
+    def __init__(
+        self,
+        config: TrainConfig,
+        run_dir: str | Path,
+        seed: int = 0,
+        progress: bool = True,
+        checkpoint_every_s: float = 300.0,
+        tensorboard: bool = True,
+        ray_address: str | None = None,
+        max_worker_restarts: int = 2,
+        init_weights: str | Path | None = None,
+    ) -> None:
         if config.promotion not in ("learner", "hybrid"):
             raise ValueError(f"promotion must be 'learner' or 'hybrid', got {config.promotion!r}")
         if config.promotion_eval_tasks < 1:
@@ -172,15 +181,19 @@ class Trainer:
         if config.replay_stage_workers < 0:
             raise ValueError(f"replay_stage_workers must be >= 0, got {config.replay_stage_workers}")
         if config.replay_stage_workers and (config.collector == "single" or config.replay_stage_workers >= config.workers):
-            raise ValueError(f"replay_stage_workers={config.replay_stage_workers} needs collector 'multi' or 'ray' and "
-                             f"fewer than workers={config.workers} (got collector {config.collector!r})")
+            raise ValueError(
+                f"replay_stage_workers={config.replay_stage_workers} needs collector 'multi' or 'ray' and "
+                f"fewer than workers={config.workers} (got collector {config.collector!r})"
+            )
         if config.imitation_teacher not in IMITATION_TEACHERS:
             raise ValueError(f"imitation_teacher must be one of {IMITATION_TEACHERS}, got {config.imitation_teacher!r}")
         if config.imitation_teacher != "scripted" and not config.heatmap:
             raise ValueError(f"imitation_teacher={config.imitation_teacher!r} needs the heat-map head (the hybrid planner uses it)")
         if config.imitation_teacher == "hybrid-acting" and config.collector != "single":
-            raise ValueError("imitation_teacher='hybrid-acting' needs collector 'single' (the acting planner uses the "
-                             f"live network in this process), got collector {config.collector!r}")
+            raise ValueError(
+                "imitation_teacher='hybrid-acting' needs collector 'single' (the acting planner uses the "
+                f"live network in this process), got collector {config.collector!r}"
+            )
         if config.promotion == "hybrid" and not config.heatmap:
             raise ValueError("promotion='hybrid' needs the heat-map head (the hybrid planner uses it); use 'learner'")
         self.config = config
@@ -221,7 +234,9 @@ class Trainer:
         self.frames = 0
         self.train_seconds = 0.0
         # the hybrid-acting teacher plans on the live network; reseeded every iteration
-        self.expert = HybridPlanner(self.net, m=4, h=4, seed=self.seed) if config.imitation_teacher == "hybrid-acting" else ScriptedRetriever()
+        self.expert = (
+            HybridPlanner(self.net, m=4, h=4, seed=self.seed) if config.imitation_teacher == "hybrid-acting" else ScriptedRetriever()
+        )
         self.dagger = DaggerBuffer(config.imitation_buffer_iters)
         for leftover in self.run_dir.glob("*.tmp"):  # a write a crash interrupted; its target is intact
             leftover.unlink()
@@ -246,8 +261,12 @@ class Trainer:
             self.init_weights = st.get("init_weights")
             if init_weights is not None and (self.init_weights or {}).get("sha256") != _sha256(init_weights):
                 # the checkpoint holds the weights; the starting point only matters for the record
-                logger.warning("resuming %s, which started from %s, not from the given %s (the latter is ignored)",
-                               ckpt, (self.init_weights or {}).get("path", "scratch"), init_weights)
+                logger.warning(
+                    "resuming %s, which started from %s, not from the given %s (the latter is ignored)",
+                    ckpt,
+                    (self.init_weights or {}).get("path", "scratch"),
+                    init_weights,
+                )
         else:
             self.init_weights = None
             self._truncate_metrics()  # rows of a run killed before its first checkpoint are redone
@@ -405,9 +424,15 @@ class Trainer:
                 if attempt == self.max_worker_restarts:
                     raise WorkerDiedError(
                         f"a Ray collector worker died at iteration {self.iteration} and {self.max_worker_restarts} "
-                        f"replacements died too ({type(err).__name__}: {err})") from err
-                logger.error("a Ray collector worker died at iteration %d (%s); starting new workers and repeating "
-                             "the iteration (%d/%d)", self.iteration, type(err).__name__, attempt + 1, self.max_worker_restarts)
+                        f"replacements died too ({type(err).__name__}: {err})"
+                    ) from err
+                logger.error(
+                    "a Ray collector worker died at iteration %d (%s); starting new workers and repeating the iteration (%d/%d)",
+                    self.iteration,
+                    type(err).__name__,
+                    attempt + 1,
+                    self.max_worker_restarts,
+                )
 
     def _collect_once(self) -> TensorDictBase:
         collector = self._get_collector()
@@ -523,8 +548,9 @@ class Trainer:
         c = self.config
         seeds = list(range(VALIDATION_SEED_BASE, VALIDATION_SEED_BASE + c.promotion_eval_tasks))
         planner = HybridPlanner(self.net, m=4, h=4, seed=0)
-        results = run_episodes(planner, task_scenes(self.curriculum.stage, seeds), seeds, c.noise, batch_size=1,
-                               primers=[self.net.make_primer()])
+        results = run_episodes(
+            planner, task_scenes(self.curriculum.stage, seeds), seeds, c.noise, batch_size=1, primers=[self.net.make_primer()]
+        )
         self.net.eval()
         rate = float(np.mean([r.success for r in results]))
         logger.info("hybrid 4x4 validation success at iteration %d (stage %d): %.2f", self.iteration, self.curriculum.stage, rate)
@@ -600,7 +626,9 @@ class Trainer:
                     logger.info("promoted to stage %d at iteration %d", self.curriculum.stage, self.iteration)
                 if bar is not None:
                     bar.update(1)
-                    bar.set_postfix(stage=summary["stage"], phase=phase, success=f"{summary['success_rate']:.2f}", fps=f"{summary['fps']:.0f}")
+                    bar.set_postfix(
+                        stage=summary["stage"], phase=phase, success=f"{summary['success_rate']:.2f}", fps=f"{summary['fps']:.0f}"
+                    )
                 if time.time() - last_ckpt >= self.checkpoint_every_s:
                     self.save()
                     last_ckpt = time.time()
@@ -614,7 +642,9 @@ class Trainer:
         """Drop metric rows written after the checkpoint we resumed from (they will be redone)."""
         path = self.run_dir / METRICS
         if path.exists():
-            rows = [line for line in path.read_text().splitlines() if _complete_row(line) and json.loads(line)["iteration"] <= self.iteration]
+            rows = [
+                line for line in path.read_text().splitlines() if _complete_row(line) and json.loads(line)["iteration"] <= self.iteration
+            ]
             tmp = path.with_suffix(".jsonl.tmp")
             tmp.write_text("".join(r + "\n" for r in rows))
             tmp.replace(path)
@@ -649,7 +679,9 @@ class Trainer:
         if self.iteration < self.config.imitation_iters and self.config.imitation_updates > 0:
             dagger_name = f"dagger_buffer-{self.iteration:07d}.pt"
             self.dagger.save(self.run_dir / dagger_name)
-        save_checkpoint(self.run_dir / CHECKPOINT, self.net, self.optimizer, self.config.to_dict(), {**self.state(), "dagger_data": dagger_name})
+        save_checkpoint(
+            self.run_dir / CHECKPOINT, self.net, self.optimizer, self.config.to_dict(), {**self.state(), "dagger_data": dagger_name}
+        )
         for old in self.run_dir.glob("dagger_buffer*.pt"):
             if old.name != dagger_name:
                 old.unlink()  # not named by the checkpoint any more (or the warm start is over)

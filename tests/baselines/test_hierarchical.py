@@ -95,6 +95,7 @@ def test_propagation_is_deterministic():
     assert np.array_equal(ea.gripper_pose, eb.gripper_pose)  # ... bit-identical
     assert np.array_equal(ea.object_poses, eb.object_poses)
     assert (ea.held, ea.opening, ea.closed) == (eb.held, eb.opening, eb.closed)
+
     def values(st):
         return [st[0].getX(), st[0].getY(), st[0].getYaw(), st[1][0], st[1][1]]
 

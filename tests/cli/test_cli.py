@@ -71,7 +71,9 @@ def test_demo_writes_summary_gif_and_strip(tmp_path):
 )
 def test_malformed_detections_are_rejected(detections, message):
     with pytest.raises(ValueError, match=message):
-        observation_from_detections((0.0, -0.1, 0.0), 0.085, detections, target_type=1, target_vertices=np.array([[0, 0], [0.02, 0], [0, 0.02]]))
+        observation_from_detections(
+            (0.0, -0.1, 0.0), 0.085, detections, target_type=1, target_vertices=np.array([[0, 0], [0.02, 0], [0, 0.02]])
+        )
 
 
 def test_rollout_min_scale_reaches_the_planner_and_the_json(tmp_path, capsys):
@@ -82,13 +84,34 @@ def test_rollout_min_scale_reaches_the_planner_and_the_json(tmp_path, capsys):
     with pytest.raises(ValueError, match="hybrid planner setting"):
         make_method("stochastic-gen", rollout_min_scale=0.3)
     out = tmp_path / "r.json"
-    assert main(["eval", "--method", "hybrid-2x2", "--stage", "1", "--objects", "1-1", "--tasks", "1",
-                 "--rollout-min-scale", "0.3", "--out", str(out), "--no-progress"]) == 0
+    assert (
+        main(
+            [
+                "eval",
+                "--method",
+                "hybrid-2x2",
+                "--stage",
+                "1",
+                "--objects",
+                "1-1",
+                "--tasks",
+                "1",
+                "--rollout-min-scale",
+                "0.3",
+                "--out",
+                str(out),
+                "--no-progress",
+            ]
+        )
+        == 0
+    )
     assert json.loads(out.read_text())["rollout_min_scale"] == 0.3
-    for bad, message in ((["--method", "scripted", "--rollout-min-scale", "0.3"], "applies to a single hybrid method"),
-                         (["--sweep", "--rollout-min-scale", "0.3"], "applies to a single hybrid method"),
-                         (["--method", "hybrid-4x4", "--rollout-min-scale", "nan"], "is not a finite number"),
-                         (["--method", "hybrid-4x4", "--rollout-min-scale", "1.5"], "allowed: a number in [0, 1]")):
+    for bad, message in (
+        (["--method", "scripted", "--rollout-min-scale", "0.3"], "applies to a single hybrid method"),
+        (["--sweep", "--rollout-min-scale", "0.3"], "applies to a single hybrid method"),
+        (["--method", "hybrid-4x4", "--rollout-min-scale", "nan"], "is not a finite number"),
+        (["--method", "hybrid-4x4", "--rollout-min-scale", "1.5"], "allowed: a number in [0, 1]"),
+    ):
         capsys.readouterr()
         assert main(["eval", *bad, "--tasks", "1", "--no-progress", "--out", str(tmp_path / "x")]) == 2
         assert message in capsys.readouterr().err

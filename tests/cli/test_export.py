@@ -10,13 +10,28 @@ from occrl.training import Trainer, get_train_config, load_weights
 
 def test_export_the_warm_start_weights_with_their_own_card(tmp_path):
     run = tmp_path / "run"
-    trainer = Trainer(get_train_config("tiny", imitation_iters=2, imitation_beta_iters=1), run, seed=0, progress=False,
-                      tensorboard=False)
+    trainer = Trainer(get_train_config("tiny", imitation_iters=2, imitation_beta_iters=1), run, seed=0, progress=False, tensorboard=False)
     trainer.train(iterations=3)
     trainer.close()
     dest = tmp_path / "shipped"
-    assert main(["export", "--run-dir", str(run), "--name", "occnet", "--preset", "tiny", "--weights", "weights_warmstart.pt",
-                 "--dest", str(dest)]) == 0
+    assert (
+        main(
+            [
+                "export",
+                "--run-dir",
+                str(run),
+                "--name",
+                "occnet",
+                "--preset",
+                "tiny",
+                "--weights",
+                "weights_warmstart.pt",
+                "--dest",
+                str(dest),
+            ]
+        )
+        == 0
+    )
     card = json.loads((dest / "model_cards.json").read_text())["occnet"]
     assert card["iterations"] == 2 and card["phase"] == "imitation" and card["weights_file"] == "weights_warmstart.pt"
     shipped, warm = load_weights(dest / "occnet.pt").state_dict(), load_weights(run / "weights_warmstart.pt").state_dict()

@@ -23,8 +23,11 @@ def valid_inputs(draw) -> dict:
     count = draw(st.integers(0, 10))
     type_ids = draw(st.lists(st.integers(1, 999_999), min_size=count, max_size=count, unique=True))
     detections = [
-        {"type_id": t, "pose": (draw(finite) * 0.3, draw(finite) * 0.4, draw(finite) * math.pi),
-         "vertices": random_convex_polygon(rng).tolist()}
+        {
+            "type_id": t,
+            "pose": (draw(finite) * 0.3, draw(finite) * 0.4, draw(finite) * math.pi),
+            "vertices": random_convex_polygon(rng).tolist(),
+        }
         for t in type_ids
     ]
     if draw(st.booleans()) and detections:  # clockwise order is accepted too
@@ -75,7 +78,11 @@ CORRUPTIONS = [
     ("detections", [{"type_id": 3, "pose": (0.0, 0.1, 0.0), "vertices": [[0, 0]] * 9}], "vertices"),
     ("detections", [{"type_id": 3, "pose": (0.0, 0.1, 0.0), "vertices": [[0, 0], [0.02, 0], [0.04, 0]]}], "vertices"),
     ("detections", [{"type_id": 3, "pose": (0.0, 0.1, 0.0), "vertices": [[0, 0], [0.02, 0], [0, 0.02]]}] * 2, "type_id"),
-    ("detections", [{"type_id": k + 1, "pose": (0.0, 0.1, 0.0), "vertices": [[0, 0], [0.02, 0], [0, 0.02]]} for k in range(11)], "detections"),
+    (
+        "detections",
+        [{"type_id": k + 1, "pose": (0.0, 0.1, 0.0), "vertices": [[0, 0], [0.02, 0], [0, 0.02]]} for k in range(11)],
+        "detections",
+    ),
 ]
 
 
@@ -91,5 +98,6 @@ def test_malformed_detections_are_refused_with_the_field_named(inputs, corruptio
 
 def test_a_missing_key_is_named():
     with pytest.raises(ValueError, match=r"detections\[0\] is missing \['vertices'\]"):
-        observation_from_detections((0.0, -0.1, 0.0), 0.085, [{"type_id": 3, "pose": (0.1, 0.2, 0.0)}], 3,
-                                    [[-0.02, -0.02], [0.02, -0.02], [0.0, 0.02]])
+        observation_from_detections(
+            (0.0, -0.1, 0.0), 0.085, [{"type_id": 3, "pose": (0.1, 0.2, 0.0)}], 3, [[-0.02, -0.02], [0.02, -0.02], [0.0, 0.02]]
+        )

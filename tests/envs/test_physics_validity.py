@@ -44,7 +44,7 @@ def _geometric_penetration(world: ShelfWorld) -> float:
     gripper = [transform_points(p, world.gripper_pose()) for p in gripper_polygons(world.opening)]
     deepest = 0.0
     for i, a in enumerate(objects):
-        others = objects[i + 1:] + wall_polygons() + ([] if world.held == i else gripper)
+        others = objects[i + 1 :] + wall_polygons() + ([] if world.held == i else gripper)
         deepest = max([deepest] + [_mtd(a, b) for b in others])
     for g in gripper:
         deepest = max([deepest] + [_mtd(g, w) for w in wall_polygons()])
@@ -89,7 +89,9 @@ def test_the_measure_reads_the_overlaps_of_the_old_physics():
     """The measure is not blind: occrl 0.1.0's settings overlap in the same squeeze, and the
     depth pymunk reports agrees with the polygons' own minimum translation distance."""
     row = [(x, 0.06, 0.0) for x in (-0.05, 0.0, 0.05, 0.10, 0.15)]
-    legacy = ShelfWorld(_boxes(row, half=0.018, gripper=(-0.14, 0.04, 0.0)), physics=PhysicsSettings(substeps=10, finger_contact=False, collision_slop=0.1))
+    legacy = ShelfWorld(
+        _boxes(row, half=0.018, gripper=(-0.14, 0.04, 0.0)), physics=PhysicsSettings(substeps=10, finger_contact=False, collision_slop=0.1)
+    )
     depths = []
     for _ in range(14):
         legacy.step([0.0, 1.0, 0.0, -1.0])

@@ -51,16 +51,26 @@ def test_clockwise_input_is_accepted():
 @pytest.mark.parametrize(
     "objects, message",
     [
-        ([{"vertices": square(0.02), "pose": (0, 0.2, 0), "is_target": True},
-          {"vertices": square(0.02), "pose": (0.03, 0.2, 0), "is_target": False}], "overlap"),
+        (
+            [
+                {"vertices": square(0.02), "pose": (0, 0.2, 0), "is_target": True},
+                {"vertices": square(0.02), "pose": (0.03, 0.2, 0), "is_target": False},
+            ],
+            "overlap",
+        ),
         ([{"vertices": square(0.02), "pose": (0.24, 0.2, 0), "is_target": True}], "outside the shelf"),
         ([{"vertices": square(0.02), "pose": (0.0, 0.01, 0), "is_target": True}], "outside the shelf"),
         ([{"vertices": [[0, 0], [0.04, 0], [0.01, 0.01], [0, 0.04]], "pose": (0, 0.2, 0), "is_target": True}], "not strictly convex"),
         ([{"vertices": [[0, 0], [0.04, 0], [0.08, 0]], "pose": (0, 0.2, 0), "is_target": True}], "degenerate"),
         ([{"vertices": [[0, 0], [0.04, 0]], "pose": (0, 0.2, 0), "is_target": True}], "3 to 8 vertices"),
         ([{"vertices": square(0.02), "pose": (0, 0.2, 0), "is_target": False}], "exactly one target"),
-        ([{"vertices": square(0.02), "pose": (-0.1, 0.2, 0), "is_target": True},
-          {"vertices": square(0.02), "pose": (0.1, 0.2, 0), "is_target": True}], "exactly one target"),
+        (
+            [
+                {"vertices": square(0.02), "pose": (-0.1, 0.2, 0), "is_target": True},
+                {"vertices": square(0.02), "pose": (0.1, 0.2, 0), "is_target": True},
+            ],
+            "exactly one target",
+        ),
         ([{"vertices": square(0.05), "pose": (0, 0.2, 0), "is_target": True}], "stroke"),
         ([{"vertices": square(0.02), "pose": (0, float("nan"), 0), "is_target": True}], "NaN"),
         ([{"vertices": square(0.02), "is_target": True}], "missing key"),

@@ -55,7 +55,9 @@ def test_malformed_scenes_are_refused_with_a_message(x, y, corruption):
 
 
 @settings(max_examples=40, deadline=None)
-@given(st.lists(st.floats(-1e6, 1e6, allow_nan=False), min_size=8, max_size=8), st.sampled_from([torch.float32, torch.float64, torch.int64]))
+@given(
+    st.lists(st.floats(-1e6, 1e6, allow_nan=False), min_size=8, max_size=8), st.sampled_from([torch.float32, torch.float64, torch.int64])
+)
 def test_any_finite_action_is_clipped_and_stepped(values, dtype):
     env = ShelfEnv(batch_size=2, stage=1, seed=0)
     td = env.reset()
@@ -90,17 +92,34 @@ def test_malformed_actions_are_refused_and_leave_the_worlds_unchanged(kind, worl
         assert np.array_equal(w.object_poses(), poses) and np.array_equal(w.gripper_pose(), g)
 
 
-@pytest.mark.parametrize("kwargs, match", [
-    (dict(num_objects=0), "num_objects"), (dict(num_objects=11), "num_objects"), (dict(max_steps=0), "max_steps"),
-    (dict(seed=-1), "seed"), (dict(seed=1.5), "seed"), (dict(batch_size=2, seed=[1, None]), "seed"),
-    (dict(stage=4), "stage"), (dict(noise=-0.1), "noise"), (dict(batch_size=0), "batch_size"),
-])
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        (dict(num_objects=0), "num_objects"),
+        (dict(num_objects=11), "num_objects"),
+        (dict(max_steps=0), "max_steps"),
+        (dict(seed=-1), "seed"),
+        (dict(seed=1.5), "seed"),
+        (dict(batch_size=2, seed=[1, None]), "seed"),
+        (dict(stage=4), "stage"),
+        (dict(noise=-0.1), "noise"),
+        (dict(batch_size=0), "batch_size"),
+    ],
+)
 def test_env_arguments_are_range_checked_at_construction(kwargs, match):
     with pytest.raises(ValueError, match=match):
         ShelfEnv(**kwargs)
 
 
-@pytest.mark.parametrize("kwargs, match", [(dict(window=0.0), "window"), (dict(size=4), "size"), (dict(forward_offset=math.inf), "forward_offset"), (dict(backend="box2d"), "backend")])
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        (dict(window=0.0), "window"),
+        (dict(size=4), "size"),
+        (dict(forward_offset=math.inf), "forward_offset"),
+        (dict(backend="box2d"), "backend"),
+    ],
+)
 def test_make_env_arguments_are_range_checked(kwargs, match):
     from occrl.envs import make_env
 

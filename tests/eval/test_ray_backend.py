@@ -26,8 +26,7 @@ def test_ray_backend_matches_local_for_the_same_seeds():
     try:
         for method, weights in (("scripted", None), ("stochastic-gen", SHIPPED)):
             local = run_tasks(method, 1, seeds, noise=0.1, batch=2, workers=1, weights=weights, progress=False)
-            remote = run_tasks(method, 1, seeds, noise=0.1, batch=2, workers=2, weights=weights, progress=False,
-                               backend="ray")
+            remote = run_tasks(method, 1, seeds, noise=0.1, batch=2, workers=2, weights=weights, progress=False, backend="ray")
             assert _outcomes(remote) == _outcomes(local), method
             if method == "scripted":  # a real comparison: the episodes differ from each other
                 assert len({r.actions for r in local}) > 1 and any(r.success for r in local)

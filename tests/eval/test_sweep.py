@@ -45,12 +45,19 @@ def test_wilson_interval():
 
 def test_a_point_extended_by_more_seeds_equals_the_point_run_at_once(tmp_path):
     values = {"clutter": [2.0]}
-    run_sweep(["stochastic-gen"], tmp_path / "grown", tasks=2, first_seed=200, sweeps=("clutter",), values=values,
-              batch=3, progress=False)
-    run_sweep(["stochastic-gen"], tmp_path / "grown", tasks=5, first_seed=200, sweeps=("clutter",), values=values,
-              batch=3, progress=False, chunk=2)  # rounds of 2: seeds 202-203, then 204
-    run_sweep(["stochastic-gen"], tmp_path / "once", tasks=5, first_seed=200, sweeps=("clutter",), values=values,
-              batch=3, progress=False)
+    run_sweep(["stochastic-gen"], tmp_path / "grown", tasks=2, first_seed=200, sweeps=("clutter",), values=values, batch=3, progress=False)
+    run_sweep(
+        ["stochastic-gen"],
+        tmp_path / "grown",
+        tasks=5,
+        first_seed=200,
+        sweeps=("clutter",),
+        values=values,
+        batch=3,
+        progress=False,
+        chunk=2,
+    )  # rounds of 2: seeds 202-203, then 204
+    run_sweep(["stochastic-gen"], tmp_path / "once", tasks=5, first_seed=200, sweeps=("clutter",), values=values, batch=3, progress=False)
     # batches differ: grown ran [200, 201], [202, 203], [204]; once ran [200, 201, 202], [203, 204]
     grown, once = (json.loads((tmp_path / d / "points" / "stochastic-gen__clutter__2.json").read_text()) for d in ("grown", "once"))
     assert [e["seed"] for e in grown["episodes"]] == list(range(200, 205))
@@ -62,8 +69,7 @@ def test_a_point_extended_by_more_seeds_equals_the_point_run_at_once(tmp_path):
 def test_film_strips_replay_the_sweep_episodes_of_the_hybrid_planner(tmp_path):
     from occrl.eval.sweep import sweep_films
 
-    out = run_sweep(["hybrid-2x2"], tmp_path, tasks=2, first_seed=300, sweeps=("clutter",), values={"clutter": [3.0]},
-                    progress=False)
+    out = run_sweep(["hybrid-2x2"], tmp_path, tasks=2, first_seed=300, sweeps=("clutter",), values={"clutter": [3.0]}, progress=False)
     point = json.loads((out / "points" / "hybrid-2x2__clutter__3.json").read_text())
     solved = sum(e["success"] for e in point["episodes"])
     paths = sweep_films(out, "hybrid-2x2", solved=solved, failed=2 - solved)  # raises if a replay differs

@@ -132,8 +132,11 @@ def test_closed_fingers_on_an_unseen_object_hold_the_target_in_the_recreated_wor
     across = local @ np.array([[c, s], [-s, c]])
     assert abs(np.ptp(across[:, 0]) - 0.06) < 2e-3
     # nothing inferred when the fingers closed on nothing, are open, or the target is seen elsewhere
-    for opening, closed, dets in ((0.0, True, []), (0.085, False, []),
-                                  (0.06, True, [{"type_id": 1, "pose": (-0.1, 0.2, 0.0), "vertices": rect}])):
+    for opening, closed, dets in (
+        (0.0, True, []),
+        (0.085, False, []),
+        (0.06, True, [{"type_id": 1, "pose": (-0.1, 0.2, 0.0), "vertices": rect}]),
+    ):
         obs = observation_from_detections((0.05, 0.1, 0.4), opening, dets, target_type=1, target_vertices=rect, gripper_closed=closed)
         assert len(recreate(obs[0]).objects) == len(dets)
 

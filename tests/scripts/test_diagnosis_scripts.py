@@ -13,11 +13,26 @@ def _run(*args: str) -> str:
 
 
 def _result(path: Path, method: str, stage: int, outcomes: list[bool]) -> Path:
-    episodes = [{"seed": 10_000_000 + i, "objects": 5, "success": ok, "dropped": False, "actions": 20 if ok else 50, "seconds": 1.0}
-                for i, ok in enumerate(outcomes)]
-    path.write_text(json.dumps({"method": method, "network": "occnet", "stage": stage, "objects": None, "noise": 0.0, "world": "pymunk",
-                                "first_seed": 10_000_000, "tasks": len(outcomes), "success_rate": sum(outcomes) / len(outcomes),
-                                "episodes": episodes}))
+    episodes = [
+        {"seed": 10_000_000 + i, "objects": 5, "success": ok, "dropped": False, "actions": 20 if ok else 50, "seconds": 1.0}
+        for i, ok in enumerate(outcomes)
+    ]
+    path.write_text(
+        json.dumps(
+            {
+                "method": method,
+                "network": "occnet",
+                "stage": stage,
+                "objects": None,
+                "noise": 0.0,
+                "world": "pymunk",
+                "first_seed": 10_000_000,
+                "tasks": len(outcomes),
+                "success_rate": sum(outcomes) / len(outcomes),
+                "episodes": episodes,
+            }
+        )
+    )
     return path
 
 

@@ -50,7 +50,7 @@ def test_trainer_with_the_planner_acting(tmp_path):
     assert isinstance(tr.expert, HybridPlanner) and tr.expert.net is tr.net
     data = tr._collect()
     # every action of the batch is a decision of the planner (its decisions' first actions, in order)
-    decided = torch.stack([torch.as_tensor(d.action, dtype=torch.float32) for d in tr.expert.decisions[-data.numel():]])
+    decided = torch.stack([torch.as_tensor(d.action, dtype=torch.float32) for d in tr.expert.decisions[-data.numel() :]])
     taken = data["action"].transpose(0, 1).reshape(-1, 4)  # decided world by world at each step
     assert torch.allclose(taken, decided, atol=1e-6)
     tr.train(iterations=1)

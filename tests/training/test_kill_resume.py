@@ -46,8 +46,22 @@ TIMING = ("fps", "collect_fps", "train_hours")
 
 
 def _train(run: Path, mode: str = "plain", kill_after: float | None = None) -> int:
-    argv = ["train", "--preset", "tiny", "--imitation-iters", "3", "--iterations", str(ITERATIONS), "--seed", "3",
-            "--checkpoint-every", "1e-9", "--no-progress", "--run-dir", str(run)]
+    argv = [
+        "train",
+        "--preset",
+        "tiny",
+        "--imitation-iters",
+        "3",
+        "--iterations",
+        str(ITERATIONS),
+        "--seed",
+        "3",
+        "--checkpoint-every",
+        "1e-9",
+        "--no-progress",
+        "--run-dir",
+        str(run),
+    ]
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
     proc = subprocess.Popen([sys.executable, "-c", CHILD, mode, *argv], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     if kill_after is not None:
@@ -118,8 +132,9 @@ def test_a_sweep_killed_at_any_moment_resumes_without_partial_or_duplicated_task
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
 
     def sweep(out: Path, mode: str = "plain", kill_after: float | None = None) -> None:
-        proc = subprocess.Popen([sys.executable, "-c", CHILD, mode, *argv, "--out", str(out)], env=env,
-                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        proc = subprocess.Popen(
+            [sys.executable, "-c", CHILD, mode, *argv, "--out", str(out)], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+        )
         try:
             proc.wait(timeout=kill_after)
         except subprocess.TimeoutExpired:

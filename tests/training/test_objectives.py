@@ -95,7 +95,8 @@ def test_advantages_reuse_embeddings_exactly_across_episode_ends():
             next_value = net.critic(net.trunk(nxt)).get("state_value").reshape(B, T, 1)
         with set_recurrent_mode(True):
             value = net.critic(net.trunk(data.copy())).get("state_value")
-    adv, target = generalized_advantage_estimate(0.995, 0.95, value, next_value, data["next", "reward"], data["next", "done"],
-                                                 data["next", "terminated"])
+    adv, target = generalized_advantage_estimate(
+        0.995, 0.95, value, next_value, data["next", "reward"], data["next", "done"], data["next", "terminated"]
+    )
     torch.testing.assert_close(got["advantage"], adv, rtol=0, atol=1e-6)
     torch.testing.assert_close(got["value_target"], target, rtol=0, atol=1e-6)

@@ -22,8 +22,9 @@ def _same(a: dict, b: dict) -> bool:
 @pytest.fixture(scope="module")
 def multi_reference(tmp_path_factory):
     """Two PPO iterations with the multi-process collector: batches and weights after each."""
-    trainer = Trainer(get_train_config("tiny", collector="multi", workers=2), tmp_path_factory.mktemp("multi"),
-                      seed=3, progress=False, tensorboard=False)
+    trainer = Trainer(
+        get_train_config("tiny", collector="multi", workers=2), tmp_path_factory.mktemp("multi"), seed=3, progress=False, tensorboard=False
+    )
     out = []
     try:
         for it in (1, 2):
@@ -37,8 +38,7 @@ def multi_reference(tmp_path_factory):
 def test_ray_collection_and_ppo_update_match_multi_and_survive_a_dead_worker(multi_reference, tmp_path, caplog):
     import ray
 
-    trainer = Trainer(get_train_config("tiny", collector="ray", workers=2), tmp_path, seed=3, progress=False,
-                      tensorboard=False)
+    trainer = Trainer(get_train_config("tiny", collector="ray", workers=2), tmp_path, seed=3, progress=False, tensorboard=False)
     try:
         summary = trainer.train(iterations=1)  # 2 Ray workers collect, then one PPO update
         assert summary["frames"] == trainer.config.frames_per_batch
@@ -58,12 +58,10 @@ def test_ray_collection_and_ppo_update_match_multi_and_survive_a_dead_worker(mul
 
 
 def test_ray_run_resumes_a_multi_run_but_not_another_preset(tmp_path):
-    trainer = Trainer(get_train_config("tiny", collector="multi", workers=2), tmp_path, seed=0, progress=False,
-                      tensorboard=False)
+    trainer = Trainer(get_train_config("tiny", collector="multi", workers=2), tmp_path, seed=0, progress=False, tensorboard=False)
     trainer.save()
     trainer.close()
-    resumed = Trainer(get_train_config("tiny", collector="ray", workers=2), tmp_path, seed=0, progress=False,
-                      tensorboard=False)
+    resumed = Trainer(get_train_config("tiny", collector="ray", workers=2), tmp_path, seed=0, progress=False, tensorboard=False)
     assert resumed.iteration == 0
     resumed.close()
     with pytest.raises(ValueError, match="other training settings"):

@@ -112,8 +112,9 @@ def test_hybrid_promotion_rule(tmp_path):
     rows = [json.loads(line) for line in (tmp_path / "a" / "metrics.jsonl").read_text().splitlines()]
     assert [r["stage"] for r in rows] == [1, 2, 2]
     assert "hybrid_success_rate" in rows[1] and "hybrid_success_rate" not in rows[0]
-    never = get_train_config("tiny", promotion="hybrid", promotion_eval_every=1, promotion_eval_tasks=2, promote_threshold=1.0,
-                             promote_window=1)
+    never = get_train_config(
+        "tiny", promotion="hybrid", promotion_eval_every=1, promotion_eval_tasks=2, promote_threshold=1.0, promote_window=1
+    )
     tr = Trainer(never, tmp_path / "b", seed=0, progress=False, tensorboard=False)
     tr.train(iterations=2)
     tr.close()
@@ -123,8 +124,17 @@ def test_hybrid_promotion_rule(tmp_path):
     assert not c.record([True, True], promote=False) and c.stage == 1 and c.success_rate == 1.0
     assert c.promote() and c.stage == 2 and c.success_rate == 0.0
     # during a DAgger phase too (the cpu-curriculum preset), from the start stage given
-    dagger = get_train_config("tiny", promotion="hybrid", promotion_eval_every=2, promotion_eval_tasks=2, promote_threshold=-1.0,
-                              imitation_iters=10, imitation_beta_iters=0, imitation_beta_min=0.3, start_stage=2)
+    dagger = get_train_config(
+        "tiny",
+        promotion="hybrid",
+        promotion_eval_every=2,
+        promotion_eval_tasks=2,
+        promote_threshold=-1.0,
+        imitation_iters=10,
+        imitation_beta_iters=0,
+        imitation_beta_min=0.3,
+        start_stage=2,
+    )
     tr = Trainer(dagger, tmp_path / "e", seed=0, progress=False, tensorboard=False)
     tr.train(iterations=2)
     tr.close()
