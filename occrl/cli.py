@@ -480,11 +480,13 @@ def main(argv: list[str] | None = None) -> int:
     )
     t.add_argument(
         "--imitation-teacher",
-        choices=["scripted", "hybrid", "hybrid-acting"],
+        choices=["scripted", "hybrid", "hybrid-acting", "hierarchical"],
         default=None,
         help="who labels the imitation phase: the privileged scripted retriever, the hybrid 4x4 "
-        "planner on the current network (expert iteration), or that planner acting and labelling "
-        "(the value learns the planner's own returns; collector single)",
+        "planner on the current network (expert iteration), that planner acting and labelling "
+        "(the value learns the planner's own returns; collector single), or the hierarchical OMPL "
+        "planner (observations only; it acts in a beta share of the episodes and labels every "
+        "step of the others, re-planning when the learner leaves its plan; collector single)",
     )
     t.add_argument(
         "--start-stage",

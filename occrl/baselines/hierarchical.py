@@ -119,6 +119,10 @@ class _Episode:
     memory: dict = field(default_factory=dict)  # type id -> _Known
     views: list = field(default_factory=list)  # (gripper pose, known object polygons) of every observation
     queue: deque = field(default_factory=deque)
+    expected: deque = field(default_factory=deque)  # gripper pose after each queued action (simulated)
+    awaiting: np.ndarray | None = None  # the pose the last executed queued action should have led to
+    queue_kind: str | None = None  # what the queue does: "reach", "extract", "rearrange_reach", "place", "move_out"
+    replans: int = 0  # plans dropped because the world stopped following them (``follow_tolerance``)
     stage: str = "search"
     sweep: list | None = None  # waypoints left in the current sweep
     sweep_full: bool = True  # the current sweep does not stop when the target comes into view
@@ -154,6 +158,12 @@ class HierarchicalPlanner(TensorDictModuleBase):
             where it may hide (:class:`HidingRegion`) and the free spot avoids it.
         seed: with the count of queries so far, seeds each query (OMPL is re-seeded before every
             query, so a query is reproducible up to its time limit and restarts).
+        follow_tolerance: ``None`` (the paper: a plan is executed open-loop to its end) or
+            ``(metres, radians)``: a plan is kept only while the observed gripper pose stays this
+            close to the pose the simulator predicted for it after each executed action; otherwise
+            it is dropped and the current stage planned again from the observation (a closed-loop
+            variant, and what lets the planner label the states another policy visits: see
+            :class:`occrl.training.dagger.OnlineTeacherPolicy`).
 
     Attributes:
         planning_seconds: planning time of the current episode (summed over the batch's worlds;
@@ -196,6 +206,7 @@ class HierarchicalPlanner(TensorDictModuleBase):
         shortcut: bool = True,
         avoid_hiding: bool = True,
         seed: int = 0,
+        follow_tolerance: tuple[float, float] | None = None,
     ) -> None:
         super().__init__()
         from occrl.baselines.kinodynamic import oc
@@ -217,6 +228,11 @@ class HierarchicalPlanner(TensorDictModuleBase):
                 raise ValueError(f"{name} must be in [0, 0.2] m, got {value}")
         if not time_limit > 0:
             raise ValueError(f"time_limit must be > 0 s, got {time_limit}")
+        if follow_tolerance is not None:
+            if len(follow_tolerance) != 2 or not all(math.isfinite(v) and v > 0 for v in follow_tolerance):
+                raise ValueError(f"follow_tolerance must be None or (metres > 0, radians > 0), got {follow_tolerance!r}")
+            follow_tolerance = (float(follow_tolerance[0]), float(follow_tolerance[1]))
+        self.follow_tolerance = follow_tolerance
         self.plan_seconds = float(plan_seconds)
         self.planner = planner
         self.sweep_x = float(sweep_x)
@@ -273,9 +289,12 @@ class HierarchicalPlanner(TensorDictModuleBase):
         """The next action of one world (observation without batch dims)."""
         pose = obs.get("gripper_pose").cpu().numpy().astype(float)
         ep.step += 1
+        if self.follow_tolerance is not None and ep.awaiting is not None and self._strayed(pose, ep.awaiting):
+            self._drop_plan(ep, bool(obs.get("gripper_closed").reshape(-1)[0]))
+        ep.awaiting = None
         self._observe(ep, obs, pose)
         if ep.queue:
-            return np.clip(ep.queue.popleft(), -1.0, 1.0)
+            return np.clip(self._pop(ep), -1.0, 1.0)
         t0 = time.perf_counter()
         for _ in range(8):  # stages that produce no action hand over to the next one
             a = self._decide(ep, obs, pose)
@@ -285,6 +304,34 @@ class HierarchicalPlanner(TensorDictModuleBase):
             a = np.array([0.0, 0.0, 0.0, OPEN])
         ep.planning_seconds += time.perf_counter() - t0  # decisions and low-level planning
         return np.clip(a, -1.0, 1.0)
+
+    def _pop(self, ep: _Episode) -> np.ndarray:
+        """The next queued action; remembers the pose the simulator predicted after it."""
+        ep.awaiting = ep.expected.popleft() if ep.expected else None
+        return ep.queue.popleft()
+
+    def _strayed(self, pose: np.ndarray, expected: np.ndarray) -> bool:
+        dist, angle = self.follow_tolerance
+        turn = abs((pose[2] - expected[2] + math.pi) % (2 * math.pi) - math.pi)
+        return math.hypot(pose[0] - expected[0], pose[1] - expected[1]) > dist or turn > angle
+
+    def _drop_plan(self, ep: _Episode, closed: bool) -> None:
+        """The world no longer follows the queued plan: drop it and go back to the stage that
+        plans it again (with the gripper closed, to the stage that plans with the object held)."""
+        kind = ep.queue_kind
+        ep.queue.clear()
+        ep.expected.clear()
+        ep.predicted = None
+        ep.replans += 1
+        if kind in ("reach", "extract"):
+            ep.stage = "retrieve_extract" if closed else "retrieve_reach"
+        elif kind == "rearrange_reach":
+            ep.stage = "rearrange_place" if closed else "rearrange_reach"
+        elif kind == "place":
+            ep.stage = "rearrange_place" if closed else "move_out"
+        elif kind == "move_out":
+            ep.stage = "move_out"
+        logger.debug("the world left the %s plan at step %d: planning %s again", kind, ep.step, ep.stage)
 
     # ------------------------------------------------------------------ perception memory
     def _observe(self, ep: _Episode, obs: TensorDictBase, pose: np.ndarray) -> None:
@@ -342,8 +389,12 @@ class HierarchicalPlanner(TensorDictModuleBase):
             ep.stage = "search"
             if not _inside(pose):
                 return None
-            ep.queue.extend(self._move_out(ep, obs, pose))
-            return ep.queue.popleft()
+            actions, poses = self._move_out(ep, obs, pose)
+            ep.queue.extend(actions)
+            ep.expected.clear()
+            ep.expected.extend(poses)
+            ep.queue_kind = "move_out"
+            return self._pop(ep)
         if ep.stage == "search":
             if ep.sweep is None:  # a new Search
                 ends = [np.array([-self.sweep_x, self.search_y, 0.0]), np.array([self.sweep_x, self.search_y, 0.0])]
@@ -423,12 +474,15 @@ class HierarchicalPlanner(TensorDictModuleBase):
         if plan is None or not plan.success:
             return self._fail(ep)
         ep.queue.extend(plan.actions)
+        ep.expected.clear()
+        ep.expected.extend(plan.gripper_poses)
+        ep.queue_kind = {"retrieve_extract": "reach", "retrieved": "extract", "rearrange_place": "rearrange_reach"}.get(next_stage, "place")
         if plan.final is not None:
             ep.predicted = {tid: plan.final.object_poses[i].copy() for i, tid in enumerate(ids)}
         ep.stage = next_stage
         if not ep.queue:
             return None
-        return ep.queue.popleft()
+        return self._pop(ep)
 
     # ------------------------------------------------------------------ low-level queries
     def _budget_ok(self, ep: _Episode) -> bool:
@@ -551,13 +605,14 @@ class HierarchicalPlanner(TensorDictModuleBase):
                     best, best_key = spot, key
         return best
 
-    def _move_out(self, ep: _Episode, obs: TensorDictBase, pose: np.ndarray) -> list[np.ndarray]:
+    def _move_out(self, ep: _Episode, obs: TensorDictBase, pose: np.ndarray) -> tuple[list[np.ndarray], list[np.ndarray]]:
         """Move_out: back out of the shelf with the gripper open, a hand-crafted primitive.
         Candidate motions are tried in the simulator of the known state (closed-loop steering):
         straight back (world -y, heading kept), back along the gripper's own axis, straight back
         while turning to face the shelf, and 3 or 6 cm sideways (towards the centre first) then
         straight back; the shortest that drops nothing, keeps out of the walls and (target
-        unlocated) out of the hiding region is executed open-loop."""
+        unlocated) out of the hiding region is executed open-loop. Returns its actions and the
+        simulated gripper pose after each."""
         state, _ = self._state(ep, obs, pose)
         world = make_world(state)
         forbidden = self._hiding(ep, state)
@@ -577,10 +632,10 @@ class HierarchicalPlanner(TensorDictModuleBase):
         for dx in (0.03, 0.06):
             for sign in (toward_centre, -toward_centre):
                 candidates[f"sideways {sign * dx:+.2f} then back"] = [(x + sign * dx, y, th), (x + sign * dx, out_y, th)]
-        best = None
+        best, best_poses = None, []
         for name, waypoints in candidates.items():
             world.restore(start)
-            actions, ok, k = [], True, 0
+            actions, poses, ok, k = [], [], True, 0
             while _inside(world.gripper_pose()) and len(actions) < 15 and (best is None or len(actions) < len(best)):
                 p = world.gripper_pose()
                 if waypoints is None:
@@ -591,17 +646,21 @@ class HierarchicalPlanner(TensorDictModuleBase):
                     a = steer_action(p, waypoints[k], OPEN)
                 out = world.step(a)
                 actions.append(a)
+                poses.append(world.gripper_pose())
                 allowed = _allowed(world.gripper_pose(), world.opening, world.nominal_vertices, world.object_poses(), forbidden, baseline)
                 if out.dropped or not allowed:
                     ok = False
                     break
             if ok and not _inside(world.gripper_pose()) and (best is None or len(actions) < len(best)):
-                best = actions
+                best, best_poses = actions, poses
         if best is None:
             logger.warning("move out: every candidate motion collides in the simulator; backing straight out")
             world.restore(start)
-            best = []
+            best, best_poses = [], []
             while _inside(world.gripper_pose()) and len(best) < 15:
                 best.append(steer_action(world.gripper_pose(), candidates["straight back"][0], OPEN))
                 world.step(best[-1])
-        return best or [np.array([0.0, 0.0, 0.0, OPEN])]
+                best_poses.append(world.gripper_pose())
+        if not best:
+            return [np.array([0.0, 0.0, 0.0, OPEN])], [np.asarray(pose, float)]
+        return best, best_poses

@@ -441,6 +441,7 @@ class PlanResult:
     propagations: int
     raw_length: int = 0  # actions of the OMPL path before shortcutting
     final: _Entry | None = field(default=None, repr=False)
+    gripper_poses: list[np.ndarray] = field(default_factory=list, repr=False)  # after each action, as replayed
 
 
 class SimControlProblem:
@@ -683,8 +684,10 @@ class SimControlProblem:
     def _finish(self, name, controls, raw, t0, finish, status_text) -> PlanResult:
         """Replay the actions from the start: every state valid, goal reached before ``finish``."""
         k = 0
+        poses = []
         for a in controls:
             k = self.simulate(k, a)
+            poses.append(self.table[k].gripper_pose.copy())
             if not self.table[k].valid:
                 status_text = "replay left the valid states"
                 return PlanResult(name, False, [], status_text, time.perf_counter() - t0, self.propagations, raw, None)
@@ -694,8 +697,9 @@ class SimControlProblem:
         for a in self.finish:
             k = self.simulate(k, a)
             actions.append(a)
+            poses.append(self.table[k].gripper_pose.copy())
         self.world.restore(self.table[0].snap)
-        return PlanResult(name, True, actions, status_text, time.perf_counter() - t0, self.propagations, raw, self.table[k])
+        return PlanResult(name, True, actions, status_text, time.perf_counter() - t0, self.propagations, raw, self.table[k], poses)
 
     def reached(self, k: int) -> bool:
         """Table entry ``k`` is in the goal region and the finishing actions (if any) stay valid

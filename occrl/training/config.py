@@ -59,7 +59,10 @@ class TrainConfig:
     # acts, beta = 0 — expert iteration, beyond the paper; ~40 ms per label on one core), or
     # "hybrid-acting": the hybrid 4x4 planner on the current network acts in every episode and its
     # choices are the labels, so the value head regresses on the returns the planner itself
-    # achieves (AlphaZero / MORE style; collector "single", the planner shares the live network)
+    # achieves (AlphaZero / MORE style; collector "single", the planner shares the live network), or
+    # "hierarchical": the hierarchical OMPL planner (observations only) acts in a share beta of the
+    # episodes and labels every step of the learner's, re-planning when the learner leaves its
+    # plan (collector "single"; the heat-map target comes from the env as always)
     imitation_teacher: str = "scripted"
     imitation_buffer_iters: int = 8  # DAgger aggregates the labelled data of this many iterations
     imitation_updates: int = 0  # gradient steps per iteration on the aggregate (0 = epochs over the new batch)

@@ -5,6 +5,9 @@ the states the *learner* visits (Ross et al., 2011). Early on, the expert itself
 probability ``beta`` so the learner sees successful endings too; ``beta`` decays to 0.
 :func:`label_with_planner` labels with the hybrid planner instead (expert iteration): a teacher
 that, like the learner, sees only detections and searches for a hidden target.
+:class:`OnlineTeacherPolicy` labels while collecting, for a teacher that keeps a memory of the
+episode (the hierarchical planner: accumulated detections, its stage and its current plan), which
+must see every observation of the learner's episode in order.
 """
 
 from __future__ import annotations
@@ -15,7 +18,7 @@ from tensordict.nn import TensorDictModuleBase
 
 from occrl.baselines.scripted import ScriptedRetriever
 
-__all__ = ["ExpertMixPolicy", "label_with_expert", "label_with_planner"]
+__all__ = ["ExpertMixPolicy", "OnlineTeacherPolicy", "label_with_expert", "label_with_planner"]
 
 
 class ExpertMixPolicy(TensorDictModuleBase):
@@ -64,6 +67,55 @@ class ExpertMixPolicy(TensorDictModuleBase):
             expert = self.expert(tensordict.copy()).get("action")
             take = torch.rand(learner.shape[:-1] + (1,)) < self.beta
             tensordict.set("action", torch.where(take, expert, learner))
+        return tensordict
+
+
+class OnlineTeacherPolicy(ExpertMixPolicy):
+    """DAgger with a teacher that remembers the episode: the teacher sees every observation of
+    every episode, in order, and its decision is written as ``"expert_action"`` on every step;
+    who acts is drawn per episode and world (the teacher with probability ``beta``), so the
+    teacher's own episodes run undisturbed and the learner's are labelled on the states the
+    learner reaches.
+
+    Only the teacher's ``in_keys`` are passed to it (never ``"privileged"``), so a teacher that
+    reads only observations stays a fair one. ``"teacher_acts"`` records who acted. Built for the
+    hierarchical planner with ``follow_tolerance`` (it re-plans when the learner leaves its plan);
+    the teacher's memory lives in this process, so collect with a single-process collector.
+
+    Examples:
+        >>> import torch
+        >>> from occrl.baselines import HierarchicalPlanner
+        >>> from occrl.envs import make_env
+        >>> from occrl.modules import make_occnet
+        >>> from occrl.training.dagger import OnlineTeacherPolicy
+        >>> net = make_occnet("paper")
+        >>> env = make_env(batch_size=2, stage=1, seed=0).append_transform(net.make_primer())
+        >>> teacher = HierarchicalPlanner(plan_seconds=0.5, follow_tolerance=(0.01, 0.15))
+        >>> data = env.rollout(3, OnlineTeacherPolicy(net.policy, teacher, beta=0.0))
+        >>> data["expert_action"].shape, bool(data["teacher_acts"].any())
+        (torch.Size([2, 3, 4]), False)
+    """
+
+    def __init__(self, policy: TensorDictModuleBase, teacher: TensorDictModuleBase, beta: float = 0.0) -> None:
+        super().__init__(policy, teacher, beta)
+        if "privileged" in teacher.in_keys:
+            raise ValueError("the online teacher must read observations only; its in_keys contain 'privileged'")
+        self.in_keys = list(dict.fromkeys(list(policy.in_keys) + list(teacher.in_keys)))
+        self.out_keys = list(policy.out_keys) + ["expert_action", "teacher_acts"]
+        self._teacher_acts: torch.Tensor | None = None  # per world: the teacher acts in this episode
+
+    def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+        tensordict = self.policy(tensordict)
+        label = self.expert(tensordict.select(*self.expert.in_keys).copy()).get("action")
+        is_init = tensordict.get("is_init").reshape(label.shape[:-1])
+        if self._teacher_acts is None or self._teacher_acts.shape != is_init.shape:
+            self._teacher_acts = torch.zeros(is_init.shape, dtype=torch.bool)
+        draw = torch.rand(is_init.shape) < self.beta
+        self._teacher_acts = torch.where(is_init, draw, self._teacher_acts)
+        acts = self._teacher_acts.unsqueeze(-1)
+        tensordict.set("expert_action", label)
+        tensordict.set("teacher_acts", acts.clone())
+        tensordict.set("action", torch.where(acts, label, tensordict.get("action")))
         return tensordict
 
 

@@ -36,7 +36,7 @@ from occrl.planners import HybridPlanner
 from occrl.training.checkpoint import load_checkpoint, load_weights, save_checkpoint, save_weights
 from occrl.training.config import TrainConfig
 from occrl.training.curriculum import Curriculum
-from occrl.training.dagger import ExpertMixPolicy, label_with_expert, label_with_planner
+from occrl.training.dagger import ExpertMixPolicy, OnlineTeacherPolicy, label_with_expert, label_with_planner
 from occrl.training.dagger_buffer import DaggerBuffer
 
 __all__ = ["Trainer", "episode_stats"]
@@ -49,7 +49,10 @@ WEIGHTS = "weights.pt"
 WARM_START_WEIGHTS = "weights_warmstart.pt"  # the network at the end of the DAgger warm start, before PPO
 VALIDATION_SEED_BASE = 20_000_000  # hybrid-promotion tasks (held-out evaluation starts at 10_000_000)
 METRICS = "metrics.jsonl"
-IMITATION_TEACHERS = ("scripted", "hybrid", "hybrid-acting")
+IMITATION_TEACHERS = ("scripted", "hybrid", "hybrid-acting", "hierarchical")
+# the hierarchical teacher: closed-loop (re-plans when the learner leaves its plan: 1 cm / 10 degrees),
+# 1 s per OMPL query, no episode time limit (labels, not a timed evaluation)
+HIERARCHICAL_TEACHER = dict(plan_seconds=1.0, follow_tolerance=(0.01, math.radians(10.0)), time_limit=1e6)
 PPO_DIAGNOSTICS = ("kl_approx", "clip_fraction", "entropy")  # ClipPPOLoss outputs logged (mean over the minibatches seen)
 
 
@@ -187,12 +190,12 @@ class Trainer:
             )
         if config.imitation_teacher not in IMITATION_TEACHERS:
             raise ValueError(f"imitation_teacher must be one of {IMITATION_TEACHERS}, got {config.imitation_teacher!r}")
-        if config.imitation_teacher != "scripted" and not config.heatmap:
+        if config.imitation_teacher in ("hybrid", "hybrid-acting") and not config.heatmap:
             raise ValueError(f"imitation_teacher={config.imitation_teacher!r} needs the heat-map head (the hybrid planner uses it)")
-        if config.imitation_teacher == "hybrid-acting" and config.collector != "single":
+        if config.imitation_teacher in ("hybrid-acting", "hierarchical") and config.collector != "single":
             raise ValueError(
-                "imitation_teacher='hybrid-acting' needs collector 'single' (the acting planner uses the "
-                f"live network in this process), got collector {config.collector!r}"
+                f"imitation_teacher={config.imitation_teacher!r} needs collector 'single' (the teacher's network "
+                f"or episode memory lives in this process), got collector {config.collector!r}"
             )
         if config.promotion == "hybrid" and not config.heatmap:
             raise ValueError("promotion='hybrid' needs the heat-map head (the hybrid planner uses it); use 'learner'")
@@ -233,10 +236,15 @@ class Trainer:
         self.iteration = 0
         self.frames = 0
         self.train_seconds = 0.0
-        # the hybrid-acting teacher plans on the live network; reseeded every iteration
-        self.expert = (
-            HybridPlanner(self.net, m=4, h=4, seed=self.seed) if config.imitation_teacher == "hybrid-acting" else ScriptedRetriever()
-        )
+        # the hybrid-acting teacher plans on the live network; planners are reseeded every iteration
+        if config.imitation_teacher == "hybrid-acting":
+            self.expert = HybridPlanner(self.net, m=4, h=4, seed=self.seed)
+        elif config.imitation_teacher == "hierarchical":
+            from occrl.baselines.hierarchical import HierarchicalPlanner  # needs OMPL
+
+            self.expert = HierarchicalPlanner(seed=self.seed, **HIERARCHICAL_TEACHER)
+        else:
+            self.expert = ScriptedRetriever()
         self.dagger = DaggerBuffer(config.imitation_buffer_iters)
         for leftover in self.run_dir.glob("*.tmp"):  # a write a crash interrupted; its target is intact
             leftover.unlink()
@@ -319,7 +327,12 @@ class Trainer:
         if self._collector is not None and self._collector_stage == stage:
             return self._collector
         self.close()
-        policy = ExpertMixPolicy(self.net.policy, self.expert, 0.0) if c.imitation_iters > 0 else self.net.policy
+        if c.imitation_iters > 0 and c.imitation_teacher == "hierarchical":
+            policy = OnlineTeacherPolicy(self.net.policy, self.expert, 0.0)
+        elif c.imitation_iters > 0:
+            policy = ExpertMixPolicy(self.net.policy, self.expert, 0.0)
+        else:
+            policy = self.net.policy
         self._policy = policy
         if c.collector == "single":
             self._collector = Collector(
@@ -441,9 +454,9 @@ class Trainer:
         beta = self._beta()
         if isinstance(self._policy, ExpertMixPolicy):
             self._policy.beta = beta
-        if isinstance(self.expert, HybridPlanner):
+        if hasattr(self.expert, "reseed"):  # the planners
             self.expert.reseed(it_seed)
-        else:
+        if hasattr(self.expert, "reset"):  # teachers with an episode memory
             self.expert.reset()
         collector.set_seed(it_seed)
         collector.update_policy_weights_()
@@ -580,6 +593,8 @@ class Trainer:
                     label_with_planner(data, self.net, seed=self.seed * 1_000_003 + self.iteration)
                 elif phase == "imitation" and c.imitation_teacher == "hybrid-acting":
                     data.set("expert_action", data.get("action").clone())  # the planner acted
+                elif c.imitation_teacher == "hierarchical":
+                    pass  # labelled while collecting (OnlineTeacherPolicy), in every phase
                 elif phase == "imitation" or c.ppo_bc_coeff > 0:
                     label_with_expert(data, self.expert)
                 compute_advantages(self.net, data, c.gamma, c.gae_lambda)

@@ -158,6 +158,7 @@ def test_move_out_backs_straight_out_when_every_candidate_motion_is_rejected(mon
     obs = env.reset()[0].exclude("privileged")
     planner = HierarchicalPlanner(seed=0)
     monkeypatch.setattr(hier, "_allowed", lambda *args, **kwargs: False)  # every simulated candidate "collides"
-    actions = planner._move_out(hier._Episode(), obs, obs["gripper_pose"].numpy().astype(float))
-    assert len(actions) > 1
+    actions, poses = planner._move_out(hier._Episode(), obs, obs["gripper_pose"].numpy().astype(float))
+    assert len(actions) > 1 and len(poses) == len(actions)
+    assert poses[-1][1] < poses[0][1]  # the simulated poses move out of the shelf
     assert all(a[0] < 0 and a[3] <= 0 for a in actions)  # backwards, gripper open
