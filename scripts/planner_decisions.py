@@ -5,7 +5,7 @@
 For each decision: the gripper's depth (y < 0 is outside the shelf), the number of roots, the
 chosen action, and per root the m roll-outs' returns with the forward component of their first
 actions. Roll-outs from the same state whose returns differ by tens while their first actions
-point both ways are a planner choosing on noise (README, *Why stage 2 stops here*).
+point both ways are a planner choosing on noise (docs/experiments.md, *Why stage 2 stops here*).
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Markdown tables of `occrl eval --out` JSON files.
 
     python scripts/results_table.py results/heldout/*.json          # one row per file
-    python scripts/results_table.py --grid results/heldout/*.json   # methods x (stage, noise), as in the README
+    python scripts/results_table.py --grid results/heldout/*.json   # methods x (stage, noise), as in docs/experiments.md
     python scripts/results_table.py --compare A.json B.json         # episodes with the same outcome and length
 
 The row table gives success with its 95 % interval, drops, actions and time per task; the grid

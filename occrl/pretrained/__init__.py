@@ -5,7 +5,7 @@ the Stochastic-gen baseline); ``"occnet-noheatmap"`` the net without heat-map he
 Stochastic baselines); ``"occnet-ei"`` is ``occnet`` after expert iteration on stage 2: its own
 sampled policy is better on every stage, the hybrid planner on it is no better than on ``occnet``
 (``occrl eval --method stochastic-gen --weights occnet-ei``). ``model_card`` says how each was
-trained; the README has the figures.
+trained; docs/experiments.md has the figures.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The analysis scripts behind the README's "Why stage 2 stops here" run and report what they say."""
+"""The analysis scripts behind "Why stage 2 stops here" (docs/experiments.md) run and report what they say."""
 
 import json
 import subprocess
