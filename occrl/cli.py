@@ -149,8 +149,9 @@ def _train(args: argparse.Namespace) -> int:
     )
     _stop_on_signals()
     try:
-        summary = trainer.train(iterations=args.iterations, max_seconds=args.max_hours * 3600 if args.max_hours else None)
+        trainer.train(iterations=args.iterations, max_seconds=args.max_hours * 3600 if args.max_hours else None)
     except KeyboardInterrupt as stop:
+        print(_train_summary(args), file=sys.stderr)
         print(
             f"stopped ({stop or 'interrupted'}); checkpoint saved at iteration {trainer.iteration}: run the same command again to resume",
             file=sys.stderr,
@@ -158,9 +159,17 @@ def _train(args: argparse.Namespace) -> int:
         return 130
     finally:
         trainer.close()
-    print(json.dumps(summary, indent=2))
-    print(f"checkpoint: {Path(args.run_dir) / 'checkpoint.pt'} (run the same command again to resume)")
+    print(_train_summary(args))
     return 0
+
+
+def _train_summary(args: argparse.Namespace) -> str:
+    from occrl.training.plots import read_metrics
+    from occrl.training.summary import training_summary
+
+    metrics = Path(args.run_dir) / "metrics.jsonl"
+    rows = read_metrics(metrics) if metrics.exists() else []
+    return training_summary(rows, args.run_dir, preset=args.preset, seed=args.seed)
 
 
 def _stop_ray_if_used(args: argparse.Namespace) -> None:
@@ -213,6 +222,9 @@ def _eval(args: argparse.Namespace) -> int:
             )
         finally:
             _stop_ray_if_used(args)
+        from occrl.eval.sweep import summarize_sweep, sweep_tables
+
+        print(sweep_tables(summarize_sweep(out)))
         print(f"wrote {out / 'results.csv'}, {out / 'results.json'}, {out / 'sweep.png'}, {out / 'films'}")
         return 0
     if not args.method:

@@ -341,7 +341,7 @@ def run_tasks(
     batch: int = 16,
     workers: int = 1,
     weights=None,
-    progress: bool = True,
+    progress=True,
     backend: str = "local",
     ray_address: str | None = None,
     world: str = "pymunk",
@@ -353,7 +353,8 @@ def run_tasks(
     (per-task wall time aside). ``world="mujoco"`` executes in the 3D MuJoCo env (the planners
     still plan in pymunk, recreated from its detections); ``num_objects=(low, high)`` draws each
     task's object count from its seed. ``rollout_min_scale`` goes to the hybrid planners
-    (:func:`~occrl.eval.methods.make_method`).
+    (:func:`~occrl.eval.methods.make_method`). ``progress``: show a progress bar with an ETA
+    (``True``), none (``False``), or advance a ``tqdm`` bar the caller owns (a sweep's).
 
     Examples:
         >>> from occrl.eval.runner import EVAL_SEED_BASE, run_tasks, summarize
@@ -366,7 +367,8 @@ def run_tasks(
     if backend not in ("local", "ray"):
         raise ValueError(f"backend must be 'local' or 'ray', got {backend!r}")
     chunks = [list(seeds[i : i + batch]) for i in range(0, len(seeds), batch)]
-    bar = tqdm(total=len(seeds), desc=f"{method} stage {stage} noise {noise}", unit="task", disable=not progress)
+    own_bar = not hasattr(progress, "update")
+    bar = tqdm(total=len(seeds), desc=f"{method} stage {stage} noise {noise}", unit="task", disable=not progress) if own_bar else progress
     results: list[list[EpisodeResult]] = [None] * len(chunks)
     jobs = [(stage, c, num_objects, noise, world) for c in chunks]
     if backend == "ray":
@@ -387,5 +389,6 @@ def run_tasks(
             for f in as_completed(futures):
                 results[futures[f]] = f.result()
                 bar.update(len(jobs[futures[f]][1]))
-    bar.close()
+    if own_bar:
+        bar.close()
     return [r for chunk in results for r in chunk]

@@ -26,7 +26,7 @@ import numpy as np
 from occrl.atomic_files import write_text_atomic
 from occrl.eval.runner import EVAL_SEED_BASE, EpisodeResult, run_tasks, summarize, task_object_count
 
-__all__ = ["SWEEPS", "run_sweep", "summarize_sweep", "plot_sweep", "sweep_films", "noise_sweep_objects"]
+__all__ = ["SWEEPS", "run_sweep", "summarize_sweep", "sweep_tables", "plot_sweep", "sweep_films", "noise_sweep_objects"]
 
 logger = logging.getLogger(__name__)
 
@@ -53,7 +53,7 @@ def _point_path(out: Path, method: str, sweep: str, value: float) -> Path:
 
 
 def _run_point(
-    method: str, sweep: str, value: float, seeds: list[int], batch: int, workers: int, weights, progress: bool, **backend
+    method: str, sweep: str, value: float, seeds: list[int], batch: int, workers: int, weights, progress, **backend
 ) -> list[EpisodeResult]:
     if sweep == "clutter":
         return run_tasks(method, SCENE_STAGE, seeds, 0.0, int(value), batch, workers, weights, progress, **backend)
@@ -106,39 +106,45 @@ def run_sweep(
 
     if tasks < 1 or (chunk is not None and chunk < 1):
         raise ValueError(f"tasks and chunk must be >= 1, got tasks={tasks}, chunk={chunk}")
+    from tqdm import tqdm
+
     out = Path(out)
     (out / "points").mkdir(parents=True, exist_ok=True)
     chunk = chunk or tasks
+    points = [(sweep, value, method) for sweep in sweeps for value in (values or SWEEPS)[sweep] for method in methods]
+    all_seeds = set(range(first_seed, first_seed + tasks))
+    to_run = sum(len(all_seeds - set(_cached_episodes(_point_path(out, m, sw, v)))) for sw, v, m in points)
+    # one bar (and ETA) for the whole sweep; the points advance it task by task
+    bar = tqdm(total=to_run, desc=f"sweep ({len(points)} points)", unit="task", disable=not progress)
     for upto in list(range(chunk, tasks, chunk)) + [tasks]:
         seeds = list(range(first_seed, first_seed + upto))
-        for sweep in sweeps:
-            for value in (values or SWEEPS)[sweep]:
-                for method in methods:
-                    path = _point_path(out, method, sweep, value)
-                    done = _cached_episodes(path)
-                    if done and min(done) != first_seed:
-                        raise ValueError(
-                            f"{path} holds task seeds from {min(done)}, not from {first_seed}: "
-                            f"use another --out folder for other task seeds"
-                        )
-                    missing = [s for s in seeds if s not in done]
-                    if not missing:
-                        continue
-                    b = 1 if method in PLANNERS else batch
-                    for r in _run_point(
-                        method, sweep, value, missing, b, workers, weights, progress, backend=backend, ray_address=ray_address
-                    ):
-                        done[r.seed] = r
-                    results = [done[s] for s in sorted(done)]
-                    point = {
-                        "method": method,
-                        "sweep": sweep,
-                        "value": value,
-                        **summarize(results),
-                        "episodes": [r.to_dict() for r in results],
-                    }
-                    write_text_atomic(path, json.dumps(point))  # a point is cached whole or not at all
-                    logger.info("%s %s=%g (%d tasks): success %.2f", method, sweep, value, len(results), point["success_rate"])
+        for sweep, value, method in points:
+            path = _point_path(out, method, sweep, value)
+            done = _cached_episodes(path)
+            if done and min(done) != first_seed:
+                raise ValueError(
+                    f"{path} holds task seeds from {min(done)}, not from {first_seed}: use another --out folder for other task seeds"
+                )
+            missing = [s for s in seeds if s not in done]
+            if not missing:
+                continue
+            b = 1 if method in PLANNERS else batch
+            bar.set_postfix_str(f"{method} {sweep}={value:g}, tasks up to {upto}")
+            for r in _run_point(
+                method, sweep, value, missing, b, workers, weights, bar if progress else False, backend=backend, ray_address=ray_address
+            ):
+                done[r.seed] = r
+            results = [done[s] for s in sorted(done)]
+            point = {
+                "method": method,
+                "sweep": sweep,
+                "value": value,
+                **summarize(results),
+                "episodes": [r.to_dict() for r in results],
+            }
+            write_text_atomic(path, json.dumps(point))  # a point is cached whole or not at all
+            logger.info("%s %s=%g (%d tasks): success %.2f", method, sweep, value, len(results), point["success_rate"])
+    bar.close()
     summarize_sweep(out)
     plot_sweep(out)
     if films:
@@ -191,6 +197,40 @@ def summarize_sweep(out: str | Path) -> list[dict]:
         w.writerows(rows)
         write_text_atomic(out / "results.csv", table.getvalue())
     return rows
+
+
+def sweep_tables(rows: list[dict]) -> str:
+    """Success (%) per method (rows) and sweep value (columns), one Markdown table per sweep,
+    with the tasks per point: the one-screen summary ``occrl eval --sweep`` ends with.
+
+    Examples:
+        >>> rows = [{"method": "scripted", "sweep": "clutter", "value": v, "tasks": 4, "success_rate": r}
+        ...         for v, r in ((1.0, 1.0), (2.0, 0.75))]
+        >>> print(sweep_tables(rows))
+        success (%) against clutter (4 tasks per point):
+        | method | 1 | 2 |
+        | --- | --- | --- |
+        | scripted | 100 | 75 |
+    """
+    blocks = []
+    for sweep in sorted({r["sweep"] for r in rows}):
+        mine = [r for r in rows if r["sweep"] == sweep]
+        values = sorted({r["value"] for r in mine})
+        methods = list(dict.fromkeys(r["method"] for r in mine))
+        cell = {(r["method"], r["value"]): r for r in mine}
+        tasks = sorted({r["tasks"] for r in mine})
+        per_point = f"{tasks[0]}" if len(tasks) == 1 else f"{tasks[0]}-{tasks[-1]}"
+        lines = [
+            f"success (%) against {sweep} ({per_point} tasks per point):",
+            "| method | " + " | ".join(f"{v:g}" for v in values) + " |",
+            "| --- |" + " --- |" * len(values),
+        ]
+        for m in methods:
+            lines.append(
+                f"| {m} | " + " | ".join(f"{100 * cell[m, v]['success_rate']:.0f}" if (m, v) in cell else "" for v in values) + " |"
+            )
+        blocks.append("\n".join(lines))
+    return "\n\n".join(blocks)
 
 
 def plot_sweep(out: str | Path) -> Path:

@@ -569,6 +569,19 @@ class Trainer:
         logger.info("hybrid 4x4 validation success at iteration %d (stage %d): %.2f", self.iteration, self.curriculum.stage, rate)
         return rate
 
+    def _progress_fields(self, summary: dict, phase: str, start_wall: float, max_seconds: float | None) -> dict:
+        """The progress bar's fields: stage, phase, success, frames/s, and the time left when the
+        run is bounded by time (tqdm's own ETA covers a bound in iterations) and the iterations
+        to the next promotion check."""
+        c = self.config
+        fields = {"stage": summary["stage"], "phase": phase, "success": f"{summary['success_rate']:.2f}", "fps": f"{summary['fps']:.0f}"}
+        if max_seconds is not None:
+            left = max(0.0, max_seconds - (time.time() - start_wall))
+            fields["left"] = f"{int(left // 3600)}:{int(left % 3600 // 60):02d}h"
+        if c.promotion == "hybrid" and phase in ("imitation", "ppo"):
+            fields["check_in"] = f"{c.promotion_eval_every - self.iteration % c.promotion_eval_every}it"
+        return fields
+
     def train(self, iterations: int | None = None, max_seconds: float | None = None) -> dict:
         """Run until ``iterations`` iterations in total (counting resumed ones) or ``max_seconds``."""
         c = self.config
@@ -641,9 +654,7 @@ class Trainer:
                     logger.info("promoted to stage %d at iteration %d", self.curriculum.stage, self.iteration)
                 if bar is not None:
                     bar.update(1)
-                    bar.set_postfix(
-                        stage=summary["stage"], phase=phase, success=f"{summary['success_rate']:.2f}", fps=f"{summary['fps']:.0f}"
-                    )
+                    bar.set_postfix(**self._progress_fields(summary, phase, start_wall, max_seconds))
                 if time.time() - last_ckpt >= self.checkpoint_every_s:
                     self.save()
                     last_ckpt = time.time()

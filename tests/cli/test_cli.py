@@ -137,3 +137,21 @@ def test_bench_names_the_available_benchmarks(capsys):
     assert main(["bench", "no_such_benchmark"]) == 2
     err = capsys.readouterr().err
     assert "no benchmark 'no_such_benchmark'" in err and "env_throughput" in err
+
+
+def test_train_ends_with_a_one_screen_summary(tmp_path, capsys):
+    assert main(["train", "--preset", "tiny", "--run-dir", str(tmp_path / "run"), "--iterations", "2", "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    assert f"run {tmp_path / 'run'} (preset tiny, seed 0): 2 iterations, 64 frames" in out
+    assert "curriculum: stage 1" in out and "(run the same command to resume)" in out
+
+
+def test_sweep_shows_one_bar_and_ends_with_its_tables(tmp_path, capsys):
+    from occrl.eval.sweep import run_sweep, summarize_sweep, sweep_tables
+
+    run_sweep(["scripted"], tmp_path, tasks=2, sweeps=("clutter",), values={"clutter": [1.0, 2.0]}, progress=True)
+    err = capsys.readouterr().err
+    assert "sweep (2 points)" in err and "4/4" in err  # one bar over every task of every point
+    assert "scripted stage" not in err  # no bar per point
+    table = sweep_tables(summarize_sweep(tmp_path))
+    assert table.startswith("success (%) against clutter (2 tasks per point):") and "| scripted |" in table
