@@ -51,7 +51,7 @@ print("target detected:", bool((td["objects", "detected"][0] & (td["objects", "t
 plt.figure(figsize=(9, 4))
 plt.imshow(frame(td[0], "left: the true shelf (target red)   right: the network input (robot-centric)"))
 plt.axis("off");"""),
-    new_markdown_cell("""### The transforms one at a time
+    new_markdown_cell("""## The transforms one at a time
 
 `OcclusionRender` draws the shelf-frame label map; `RobotCentricCrop` resamples it around the
 gripper. Both are TorchRL transforms and can be called on a tensordict directly."""),
@@ -67,7 +67,7 @@ fig, axes = plt.subplots(1, 2, figsize=(8, 4))
 axes[0].imshow(labels_to_rgb(rendered["shelf_labels"][0].numpy())); axes[0].set_title("OcclusionRender: shelf frame")
 axes[1].imshow(cropped["pixels"][0].permute(1, 2, 0)); axes[1].set_title("RobotCentricCrop: 64 x 64 input")
 for a in axes: a.axis("off")"""),
-    new_markdown_cell("""### An episode
+    new_markdown_cell("""## An episode
 
 Actions are `(forward, lateral, rotation, gripper)` in [-1, 1] in the gripper frame. The
 privileged scripted retriever (the imitation expert) reads the ground truth and pulls the target
@@ -84,7 +84,7 @@ fig, axes = plt.subplots(2, 2, figsize=(12, 6))
 for a, k in zip(axes.flat, picks):
     a.imshow(frames[k]); a.axis("off")
 save_gif(frames, "tour_episode.gif")"""),
-    new_markdown_cell("""### Batched worlds and bad input
+    new_markdown_cell("""## Batched worlds and bad input
 
 One `ShelfEnv` steps many worlds (one network call serves them all). A NaN action is refused with
 a clear error and leaves every world as it was."""),
@@ -205,7 +205,7 @@ for a, p in zip(axes[0], panels):
     new_markdown_cell("""The panels are the planner's own belief: only detected objects, the target where a root
 hypothesises it (red), grey roll-outs, the root's best in blue and the executed one in orange.
 
-### A whole task
+## A whole task
 
 `HybridPlanner` is a TorchRL policy: `env.rollout(policy=planner)` runs a task, and
 `planner.decisions` keeps every decision for pictures."""),
