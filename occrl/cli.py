@@ -132,6 +132,15 @@ def _train(args: argparse.Namespace) -> int:
         overrides["promotion_eval_tasks"] = args.promotion_eval_tasks
     if args.imitation_teacher:
         overrides["imitation_teacher"] = args.imitation_teacher
+    if args.device:
+        from occrl.training.trainer import training_device
+
+        try:
+            training_device(args.device)
+        except ValueError as err:
+            print(f"--device: {err}", file=sys.stderr)
+            return 2
+        overrides["device"] = args.device
     config = get_train_config(args.preset, **overrides)
     init_weights = args.init_weights
     if init_weights is not None and not Path(init_weights).exists():
@@ -499,6 +508,12 @@ def main(argv: list[str] | None = None) -> int:
         "(the value learns the planner's own returns; collector single), or the hierarchical OMPL "
         "planner (observations only; it acts in a beta share of the episodes and labels every "
         "step of the others, re-planning when the learner leaves its plan; collector single)",
+    )
+    t.add_argument(
+        "--device",
+        default=None,
+        help="where the network and the loss run: cpu (default) or cuda / cuda:N; collectors act on the "
+        "CPU with the weights copied over after every update. A run may resume on another device",
     )
     t.add_argument(
         "--start-stage",

@@ -127,6 +127,11 @@ class HybridPlanner(TensorDictModuleBase):
             raise ValueError(f"gamma must be in (0, 1], got {gamma}")
         if not 0.0 <= rollout_min_scale <= 1.0:
             raise ValueError(f"rollout_min_scale must be in [0, 1] (a standard deviation in action units), got {rollout_min_scale}")
+        device = next(net.parameters()).device
+        if device.type != "cpu":
+            # roll-outs call the network on a few states at a time between pymunk steps: on an
+            # accelerator the transfers would cost more than the arithmetic (docs/decisions.md)
+            raise ValueError(f"the hybrid planner runs its network on the CPU; this one is on {device}: pass net.to('cpu')")
         self.net = net.eval()
         self.m, self.h = int(m), int(h)
         self.limited = limited

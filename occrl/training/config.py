@@ -35,6 +35,9 @@ class TrainConfig:
     steps_per_env: int = 50
     collector: str = "single"  # "single" | "multi" (MultiSyncCollector, one env batch per worker)
     workers: int = 2
+    # where the network and the loss run: "cpu" or "cuda" / "cuda:N" (collectors always act on the CPU,
+    # on a copy of the network synchronised after every update); a run may resume on another device
+    device: str = "cpu"
     # optimisation
     optimizer: str = "rmsprop"  # "rmsprop" | "adam"
     lr: float = 5e-5

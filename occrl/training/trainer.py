@@ -60,6 +60,35 @@ RAY_WORKER_MEMORY = 2 * 1024**3  # bytes reserved per Ray collector worker
 
 # settings that change where frames are computed but not which: a run may resume under another one
 _RUNTIME_SETTINGS = {"collector": {"multi", "ray"}}
+_MACHINE_SETTINGS = ("device",)  # a run resumes on any device
+
+
+def training_device(name: str) -> torch.device:
+    """The torch device for ``TrainConfig.device``, with a clear error where it does not exist.
+
+    Examples:
+        >>> training_device("cpu")
+        device(type='cpu')
+        >>> training_device("tpu")
+        Traceback (most recent call last):
+            ...
+        ValueError: device must be 'cpu', 'cuda' or 'cuda:N', got 'tpu'
+    """
+    try:
+        device = torch.device(name)
+    except (RuntimeError, TypeError):
+        device = None
+    if device is None or device.type not in ("cpu", "cuda"):
+        raise ValueError(f"device must be 'cpu', 'cuda' or 'cuda:N', got {name!r}")
+    if device.type == "cuda":
+        if not torch.cuda.is_available():
+            raise ValueError(
+                f"device {name!r}: no CUDA device is available here (torch.cuda.is_available() is False; "
+                f"this torch build: {torch.__version__}); train with device 'cpu'"
+            )
+        if device.index is not None and device.index >= torch.cuda.device_count():
+            raise ValueError(f"device {name!r}: only {torch.cuda.device_count()} CUDA device(s) here")
+    return device
 
 
 def _freeze_scale_outputs(net) -> None:
@@ -99,6 +128,8 @@ def _same_run_settings(saved: dict, current: dict) -> bool:
     for key, interchangeable in _RUNTIME_SETTINGS.items():
         if saved.get(key) in interchangeable and current.get(key) in interchangeable:
             saved, current = {**saved, key: None}, {**current, key: None}
+    for key in _MACHINE_SETTINGS:
+        saved, current = {**saved, key: None}, {**current, key: None}
     return saved == current
 
 
@@ -211,7 +242,14 @@ class Trainer:
         self.progress = progress
         self.checkpoint_every_s = checkpoint_every_s
         torch.manual_seed(self.seed)
+        self.device = training_device(config.device)
         self.net = make_occnet(config.net_preset, heatmap=config.heatmap).eval()
+        # collection, planner teachers and promotion checks act on the CPU: on self.acting_net,
+        # the learner itself on a CPU run, else a CPU copy synchronised after every update
+        self.acting_net = self.net
+        if self.device.type != "cpu":
+            self.acting_net = make_occnet(config.net_preset, heatmap=config.heatmap).eval()
+            self.net.to(self.device)
         self.loss = PPOHeatmapLoss(
             self.net,
             clip_epsilon=config.clip_epsilon,
@@ -238,7 +276,7 @@ class Trainer:
         self.train_seconds = 0.0
         # the hybrid-acting teacher plans on the live network; planners are reseeded every iteration
         if config.imitation_teacher == "hybrid-acting":
-            self.expert = HybridPlanner(self.net, m=4, h=4, seed=self.seed)
+            self.expert = HybridPlanner(self.acting_net, m=4, h=4, seed=self.seed)
         elif config.imitation_teacher == "hierarchical":
             from occrl.baselines.hierarchical import HierarchicalPlanner  # needs OMPL
 
@@ -283,11 +321,21 @@ class Trainer:
                 self.net.eval()
                 self.init_weights = {"path": str(init_weights), "sha256": _sha256(init_weights)}
                 logger.info("new run from the weights in %s", init_weights)
+        self._sync_acting_net()
         self._collector = None
         self._collector_stage = None
         self._loggers = self._make_loggers(tensorboard)
 
     # ------------------------------------------------------------------ plumbing
+    def _sync_acting_net(self) -> None:
+        """Copy the learner's weights and batch-norm statistics into the CPU copy that acts."""
+        if self.acting_net is not self.net:
+            self.acting_net.load_state_dict(self.net.state_dict())
+            self.acting_net.eval()
+
+    def _on_device(self, td: TensorDictBase) -> TensorDictBase:
+        return td if self.device.type == "cpu" else td.to(self.device)
+
     def _make_loggers(self, tensorboard: bool) -> list:
         from torchrl.record.loggers import CSVLogger
 
@@ -328,15 +376,15 @@ class Trainer:
             return self._collector
         self.close()
         if c.imitation_iters > 0 and c.imitation_teacher == "hierarchical":
-            policy = OnlineTeacherPolicy(self.net.policy, self.expert, 0.0)
+            policy = OnlineTeacherPolicy(self.acting_net.policy, self.expert, 0.0)
         elif c.imitation_iters > 0:
-            policy = ExpertMixPolicy(self.net.policy, self.expert, 0.0)
+            policy = ExpertMixPolicy(self.acting_net.policy, self.expert, 0.0)
         else:
-            policy = self.net.policy
+            policy = self.acting_net.policy
         self._policy = policy
         if c.collector == "single":
             self._collector = Collector(
-                partial(_env_factory, stage, c.noise, c.num_envs, self.seed, self.net),
+                partial(_env_factory, stage, c.noise, c.num_envs, self.seed, self.acting_net),
                 policy,
                 frames_per_batch=c.frames_per_batch,
                 total_frames=-1,
@@ -349,7 +397,7 @@ class Trainer:
                 raise ValueError(f"num_envs ({c.num_envs}) must be a multiple of workers ({c.workers})")
             # worker k steps envs seeded from seed + k in both: the same batches either way (tested)
             stages = self._worker_stages(stage)
-            factories = [partial(_env_factory, stages[k], c.noise, per, self.seed + k, self.net) for k in range(c.workers)]
+            factories = [partial(_env_factory, stages[k], c.noise, per, self.seed + k, self.acting_net) for k in range(c.workers)]
             if c.collector == "multi":
                 self._collector = MultiSyncCollector(
                     factories,
@@ -491,9 +539,9 @@ class Trainer:
         sums: dict[str, float] = {}
         count = 0
         if phase == "imitation" and c.imitation_updates > 0:
-            self.dagger.add(data)
+            self.dagger.add(data if self.device.type == "cpu" else data.to("cpu"))  # the aggregate stays in CPU memory
             for _ in range(c.imitation_updates):
-                terms = self._imitation_terms(self.dagger.sample(c.minibatch_envs))
+                terms = self._imitation_terms(self._on_device(self.dagger.sample(c.minibatch_envs)))
                 self._step(terms)
                 for k, v in terms.items():
                     sums[k] = sums.get(k, 0.0) + float(v.detach())
@@ -560,11 +608,11 @@ class Trainer:
 
         c = self.config
         seeds = list(range(VALIDATION_SEED_BASE, VALIDATION_SEED_BASE + c.promotion_eval_tasks))
-        planner = HybridPlanner(self.net, m=4, h=4, seed=0)
+        planner = HybridPlanner(self.acting_net, m=4, h=4, seed=0)
         results = run_episodes(
-            planner, task_scenes(self.curriculum.stage, seeds), seeds, c.noise, batch_size=1, primers=[self.net.make_primer()]
+            planner, task_scenes(self.curriculum.stage, seeds), seeds, c.noise, batch_size=1, primers=[self.acting_net.make_primer()]
         )
-        self.net.eval()
+        self.acting_net.eval()
         rate = float(np.mean([r.success for r in results]))
         logger.info("hybrid 4x4 validation success at iteration %d (stage %d): %.2f", self.iteration, self.curriculum.stage, rate)
         return rate
@@ -603,18 +651,20 @@ class Trainer:
                 data = self._collect()
                 t_collect = time.time() - t0
                 if phase == "imitation" and c.imitation_teacher == "hybrid":
-                    label_with_planner(data, self.net, seed=self.seed * 1_000_003 + self.iteration)
+                    label_with_planner(data, self.acting_net, seed=self.seed * 1_000_003 + self.iteration)
                 elif phase == "imitation" and c.imitation_teacher == "hybrid-acting":
                     data.set("expert_action", data.get("action").clone())  # the planner acted
                 elif c.imitation_teacher == "hierarchical":
                     pass  # labelled while collecting (OnlineTeacherPolicy), in every phase
                 elif phase == "imitation" or c.ppo_bc_coeff > 0:
                     label_with_expert(data, self.expert)
-                compute_advantages(self.net, data, c.gamma, c.gae_lambda)
-                losses = self._update(data, phase)
+                batch = self._on_device(data)  # the collected batch (CPU) where the learner is
+                compute_advantages(self.net, batch, c.gamma, c.gae_lambda)
+                losses = self._update(batch, phase)
                 # after the update, for the next collection: refreshed between collection and update,
                 # the statistics changed the policy under PPO's ratio (|log-prob change| 0.13 on average)
-                self._refresh_batch_norm(data)
+                self._refresh_batch_norm(batch)
+                self._sync_acting_net()
                 stats = episode_stats(data)
                 promoted = False
                 if beta == 0.0:
