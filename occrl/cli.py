@@ -11,6 +11,7 @@ import json
 import logging
 import math
 import os
+import re
 import sys
 import time
 from pathlib import Path
@@ -71,7 +72,7 @@ def _demo(args: argparse.Namespace) -> int:
     print(f"{'task':>4} {'objects':>7} {'result':>10} {'actions':>7} {'seconds':>7}")
     for k in range(args.tasks):
         scene = Scene.sample(args.stage, seed=args.seed + k)
-        extra = {"backend": "mujoco", "record_camera": _gl_available()} if args.world == "mujoco" else {}
+        extra = {"world": "mujoco", "record_camera": _gl_available()} if args.world == "mujoco" else {}
         env = make_env(batch_size=1, scenes=[scene], heatmap_target=False, **extra)
         for p in primers:
             env.append_transform(p.clone())
@@ -111,36 +112,19 @@ def _stop_on_signals() -> None:
 
 
 def _train(args: argparse.Namespace) -> int:
-    from occrl.training import Trainer, get_train_config
+    from occrl.training import TrainConfig, Trainer, get_train_config
 
-    overrides = {}
-    if args.collector:
-        overrides["collector"] = args.collector
-    if args.num_envs:
-        overrides["num_envs"] = args.num_envs
-    if args.imitation_iters is not None:
-        overrides["imitation_iters"] = args.imitation_iters
-    if args.no_heatmap:
-        overrides["heatmap"] = False
-    if args.promotion:
-        overrides["promotion"] = args.promotion
-    if args.start_stage is not None:
-        overrides["start_stage"] = args.start_stage
-    if args.replay_stage_workers is not None:
-        overrides["replay_stage_workers"] = args.replay_stage_workers
-    if args.promotion_eval_tasks is not None:
-        overrides["promotion_eval_tasks"] = args.promotion_eval_tasks
-    if args.imitation_teacher:
-        overrides["imitation_teacher"] = args.imitation_teacher
-    if args.device:
+    # the options generated from TrainConfig (_add_train_settings); --preset picks the preset itself
+    settable = [name for name in TrainConfig.field_docs() if name != "preset"]
+    overrides = {name: getattr(args, name) for name in settable if getattr(args, name, None) is not None}
+    if "device" in overrides:
         from occrl.training.trainer import training_device
 
         try:
-            training_device(args.device)
+            training_device(overrides["device"])
         except ValueError as err:
             print(f"--device: {err}", file=sys.stderr)
             return 2
-        overrides["device"] = args.device
     config = get_train_config(args.preset, **overrides)
     init_weights = args.init_weights
     if init_weights is not None and not Path(init_weights).exists():
@@ -450,7 +434,49 @@ NOISE = _bounded(float, 0.0, 1.0, what="a number in [0, 1] (the paper uses 0 to 
 SCALE = _bounded(float, 0.0, 1.0, what="a number in [0, 1]")
 
 
-def main(argv: list[str] | None = None) -> int:
+FRACTION = _bounded(float, 0.0, 1.0, what="a number in [0, 1]")
+NON_NEGATIVE_NUMBER = _bounded(float, 0.0, what="a number >= 0")
+DISCOUNT = _bounded(float, 0.0, 1.0, low_open=True, what="a number in (0, 1]")
+# argparse types of the training settings that are not plain non-negative integers or numbers
+SETTING_TYPES = {
+    **{name: COUNT for name in ("num_envs", "steps_per_env", "workers", "epochs", "minibatch_envs", "imitation_buffer_iters")},
+    **{name: COUNT for name in ("promote_window", "promotion_eval_every", "promotion_eval_tasks")},
+    **{name: FRACTION for name in ("heatmap_fraction", "imitation_beta_min", "promote_threshold", "gae_lambda", "noise")},
+    "gamma": DISCOUNT,
+}
+
+
+def _add_train_settings(parser: argparse.ArgumentParser) -> None:
+    """One option per :class:`~occrl.training.TrainConfig` setting (``--num-envs`` for
+    ``num_envs``; ``--heatmap/--no-heatmap`` for a flag), its help the setting's docstring; an
+    option given overrides the preset's value."""
+    from dataclasses import fields
+
+    from occrl.modules import PRESETS
+    from occrl.training.config import SETTING_CHOICES, TrainConfig
+
+    docs = TrainConfig.field_docs()
+    group = parser.add_argument_group("training settings (default: the preset's; TrainConfig)")
+    for f in fields(TrainConfig):
+        if f.name == "preset":
+            continue
+        flag = "--" + f.name.replace("_", "-")
+        text = re.sub(r":\w+:`~?([^`]+)`", r"\1", docs[f.name]).replace("``", "").replace("%", "%%")  # no reST in --help
+        if f.type in (bool, "bool"):
+            group.add_argument(flag, dest=f.name, action=argparse.BooleanOptionalAction, default=None, help=text)
+        elif f.name == "start_stage":
+            group.add_argument(flag, dest=f.name, type=int, choices=[1, 2, 3], default=None, help=text)
+        elif f.type in (int, "int"):
+            group.add_argument(flag, dest=f.name, type=SETTING_TYPES.get(f.name, NON_NEGATIVE), default=None, help=text)
+        elif f.type in (float, "float"):
+            group.add_argument(flag, dest=f.name, type=SETTING_TYPES.get(f.name, NON_NEGATIVE_NUMBER), default=None, help=text)
+        else:
+            choices = PRESETS if f.name == "net_preset" else SETTING_CHOICES.get(f.name)
+            group.add_argument(flag, dest=f.name, choices=choices, default=None, help=text)
+
+
+def make_parser() -> argparse.ArgumentParser:
+    """The ``occrl`` command line: demo, train, eval, export, bench."""
     parser = argparse.ArgumentParser(prog="occrl", description=__doc__.splitlines()[0])
     parser.add_argument("-v", "--verbose", action="store_true")
     parser.add_argument("--version", action="version", version=f"occrl {__version__}")
@@ -473,67 +499,19 @@ def main(argv: list[str] | None = None) -> int:
     d.set_defaults(func=_demo)
 
     t = sub.add_parser("train", help="train OccNet (curriculum PPO + heat-map loss); resumes from RUN_DIR")
-    t.add_argument("--preset", default="paper", help="training preset: paper, cpu, cpu-finetune, cpu-curriculum, tiny")
+    t.add_argument(
+        "--preset", default="paper", help="training preset (occrl/training/config.py): paper, cpu, cpu-finetune, cpu-curriculum, tiny"
+    )
     t.add_argument("--run-dir", required=True, help="run folder (checkpoint, logs, curves); keep it outside the source tree")
     t.add_argument("--seed", type=SEED, default=0)
     t.add_argument("--iterations", type=COUNT, default=None, help="stop after this many iterations in total")
     t.add_argument("--max-hours", type=POSITIVE, default=None, help="stop after this many hours of this session")
     t.add_argument(
-        "--collector",
-        choices=["single", "multi", "ray"],
-        default=None,
-        help="TorchRL collector: single process, MultiSyncCollector or RayCollector (a run may switch "
-        "between multi and ray when resumed: they collect the same batches)",
-    )
-    t.add_argument(
         "--ray-address",
         default=None,
         help="with --collector ray: join this Ray cluster ('auto', 'host:6379', 'ray://host:10001'); default: start a local Ray runtime",
     )
-    t.add_argument("--num-envs", type=COUNT, default=None)
-    t.add_argument("--imitation-iters", type=NON_NEGATIVE, default=None, help="DAgger warm-start iterations (0 = PPO from scratch)")
-    t.add_argument("--no-heatmap", action="store_true", help="train the net without heat-map head (baselines)")
-    t.add_argument(
-        "--promotion",
-        choices=["learner", "hybrid"],
-        default=None,
-        help="curriculum rule: the paper's hybrid 4x4 validation (needs the heat-map head) or the learner's own success",
-    )
-    t.add_argument(
-        "--imitation-teacher",
-        choices=["scripted", "hybrid", "hybrid-acting", "hierarchical"],
-        default=None,
-        help="who labels the imitation phase: the privileged scripted retriever, the hybrid 4x4 "
-        "planner on the current network (expert iteration), that planner acting and labelling "
-        "(the value learns the planner's own returns; collector single), or the hierarchical OMPL "
-        "planner (observations only; it acts in a beta share of the episodes and labels every "
-        "step of the others, re-planning when the learner leaves its plan; collector single)",
-    )
-    t.add_argument(
-        "--device",
-        default=None,
-        help="where the network and the loss run: cpu (default) or cuda / cuda:N; collectors act on the "
-        "CPU with the weights copied over after every update. A run may resume on another device",
-    )
-    t.add_argument(
-        "--start-stage",
-        type=int,
-        choices=[1, 2, 3],
-        default=None,
-        help="curriculum stage of a new run (e.g. 2 when continuing a net that passed stage 1)",
-    )
-    t.add_argument(
-        "--promotion-eval-tasks",
-        type=COUNT,
-        default=None,
-        help="validation tasks of the hybrid promotion check (presets: 30; its 95 %% interval is about +-15 points, 100 tasks about +-8)",
-    )
-    t.add_argument(
-        "--replay-stage-workers",
-        type=NON_NEGATIVE,
-        default=None,
-        help="collector workers that keep collecting the previous stage after a promotion (or below --start-stage)",
-    )
+    _add_train_settings(t)
     t.add_argument(
         "--init-weights",
         default=None,
@@ -612,6 +590,11 @@ def main(argv: list[str] | None = None) -> int:
     b.add_argument("rest", nargs=argparse.REMAINDER)
     b.set_defaults(func=_bench)
 
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = make_parser()
     try:
         args = parser.parse_args(argv)
     except SystemExit as exit_:  # argparse printed the usage and a one-line error (or the help)

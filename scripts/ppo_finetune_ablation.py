@@ -9,7 +9,9 @@ Usage:
     python scripts/ppo_finetune_ablation.py --out results/ppo-finetune --table-only
 
 A variant whose run folder already holds ``--iterations`` rows of metrics is not run again.
-``results/ppo-finetune/`` holds the metrics of the runs quoted in docs/decisions.md.
+``results/ppo-finetune/`` holds the metrics of the runs quoted in docs/decisions.md. The
+expert-term variants (``bc*``) need training settings removed in occrl 0.2.0: rerun them from
+commit eed1cea (``git checkout eed1cea``); ``--table-only`` prints all of them from their metrics.
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ VARIANTS: dict[str, tuple[str, dict]] = {
     "preset": ("cpu-finetune as shipped (no expert term)", {}),
     "bn-refresh-lr0": (
         "batch-norm refresh on (400 frames), learning rate 0",
-        {"batch_norm_frames": 400, "lr": 0.0, "ppo_bc_coeff": 0.5, "ppo_bc_min_scale": 0.1},
+        {"batch_norm_frames": 400, "lr": 0.0},  # run with an expert term x0.5, which moves nothing at lr 0
     ),
     "bc1-floor0.01": ("+ expert term: its negative log-likelihood on the batch, x1, spread floor 0.01", BC),
     "bc0.5-floor0.1": ("+ expert term x0.5, spread floor 0.1 (the warm start's)", {"ppo_bc_coeff": 0.5, "ppo_bc_min_scale": 0.1}),
@@ -42,6 +44,8 @@ def run(name: str, out: Path, iterations: int) -> None:
     metrics = folder / "metrics.jsonl"
     if metrics.exists() and len(metrics.read_text().splitlines()) >= iterations:
         return
+    if name.startswith("bc"):
+        raise SystemExit(f"variant {name}: the expert term was removed in occrl 0.2.0; rerun it from commit eed1cea")
     trainer = Trainer(
         get_train_config("cpu-finetune", **VARIANTS[name][1]),
         folder,

@@ -51,7 +51,7 @@ def make_env(
     size: int = DEFAULT_SIZE,
     forward_offset: float = DEFAULT_FORWARD_OFFSET,
     heatmap_target: bool = True,
-    backend: str = "pymunk",
+    world: str = "pymunk",
     **env_kwargs,
 ) -> TransformedEnv:
     """The standard pipeline: a batched env whose ``"pixels"`` entry is the 3x64x64 network input.
@@ -63,8 +63,10 @@ def make_env(
         stage, noise, seed, scenes, num_objects, max_steps: see :class:`~occrl.envs.ShelfEnv`.
         window, size, forward_offset: the robot-centric window (metres, pixels, metres).
         heatmap_target: also render ``("privileged", "heatmap_target")`` for training.
-        backend: ``"pymunk"`` (the 2D world) or ``"mujoco"`` (:class:`~occrl.envs.MujocoShelfEnv`, the
+        world: ``"pymunk"`` (the 2D world) or ``"mujoco"`` (:class:`~occrl.envs.MujocoShelfEnv`, the
             3D execution env with its default visibility ``"auto"``; needs ``pip install -e ".[mujoco]"``).
+            (Called ``backend`` before 0.2.0, a name now kept for process executors; still accepted
+            here with a ``DeprecationWarning``.)
         **env_kwargs: passed to the env class, e.g. ``physics=occrl.envs.LEGACY_PHYSICS`` (the
             pymunk physics of occrl 0.1.0), or ``record_camera=True`` or ``visibility="rays"`` for
             MuJoCo.
@@ -82,14 +84,19 @@ def make_env(
         raise ValueError(f"size must be an int >= 8 (pixels), got {size!r}")
     if not math.isfinite(forward_offset):
         raise ValueError(f"forward_offset must be finite (metres), got {forward_offset!r}")
-    if backend == "pymunk":
+    if "backend" in env_kwargs:
+        import warnings
+
+        warnings.warn("make_env(backend=...) is now make_env(world=...)", DeprecationWarning, stacklevel=2)
+        world = env_kwargs.pop("backend")
+    if world == "pymunk":
         env_cls = ShelfEnv
-    elif backend == "mujoco":
+    elif world == "mujoco":
         from occrl.envs.mujoco_env import MujocoShelfEnv  # optional extra: imported only when asked for
 
         env_cls = MujocoShelfEnv
     else:
-        raise ValueError(f"backend must be 'pymunk' or 'mujoco', got {backend!r}")
+        raise ValueError(f"world must be 'pymunk' or 'mujoco', got {world!r}")
     base = env_cls(
         batch_size=batch_size,
         stage=stage,

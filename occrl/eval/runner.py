@@ -141,7 +141,7 @@ def seeded_task_env(
         torch.Size([2])
     """
     env = make_env(
-        batch_size=len(scenes), scenes=list(scenes), noise=noise, seed=[int(s) for s in seeds], heatmap_target=heatmap_target, backend=world
+        batch_size=len(scenes), scenes=list(scenes), noise=noise, seed=[int(s) for s in seeds], heatmap_target=heatmap_target, world=world
     )
     for p in primers:
         env.append_transform(p.clone() if hasattr(p, "clone") else p)

@@ -74,11 +74,6 @@ class PPOHeatmapLoss(ClipPPOLoss):
         heatmap_fraction: share of frames whose heat-map is decoded for the loss (1.0 = all).
         loss_critic_type: ``"smooth_l1"`` (default; returns reach -100, and an L2 value loss
             would dominate the clipped gradient) or ``"l2"`` (the paper's squared error).
-        bc_coeff: weight of an extra ``loss_bc`` = negative log-likelihood of ``"expert_action"``
-            (the privileged scripted retriever's action on the same frames; 0 = the paper's loss).
-            Tried as a regulariser for PPO fine-tuning of a warm-started net, it degraded the
-            policy in every form tried (docs/decisions.md); kept for such experiments.
-        bc_min_scale: standard-deviation floor of that likelihood (as in :func:`imitation_nll`).
 
     The input tensordict has batch dims [B, T] (B sequences of T steps) and carries
     ``"advantage"`` and ``"value_target"`` (see :func:`compute_advantages`).
@@ -110,8 +105,6 @@ class PPOHeatmapLoss(ClipPPOLoss):
         normalize_advantage: bool = True,
         heatmap_fraction: float = 1.0,
         loss_critic_type: str = "smooth_l1",
-        bc_coeff: float = 0.0,
-        bc_min_scale: float = 0.1,
     ) -> None:
         super().__init__(
             actor_network=net.actor,
@@ -128,21 +121,14 @@ class PPOHeatmapLoss(ClipPPOLoss):
         self.heatmap_head = net.heatmap_head
         self.heatmap_coeff = heatmap_coeff
         self.heatmap_fraction = heatmap_fraction
-        self.policy_head = net.actor.module[0]  # "belief" -> "loc", "scale" (for loss_bc)
-        self.bc_coeff = bc_coeff
-        self.bc_min_scale = bc_min_scale
 
     def forward(self, tensordict: TensorDictBase) -> TensorDict:
-        if self.bc_coeff > 0 and "expert_action" not in tensordict.keys():
-            raise KeyError('bc_coeff > 0 needs "expert_action" in the batch (label it with occrl.training.dagger.label_with_expert)')
         td = tensordict.copy()
         with set_recurrent_mode(True):
             td = self.trunk(td)
         out = super().forward(td)
         if self.heatmap_head is not None and self.heatmap_coeff > 0:
             out.set("loss_heatmap", self.heatmap_coeff * heatmap_loss(self.heatmap_head, td, self.heatmap_fraction))
-        if self.bc_coeff > 0:
-            out.set("loss_bc", self.bc_coeff * _expert_nll(self.policy_head, td, self.bc_min_scale))
         return out
 
 

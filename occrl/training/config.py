@@ -6,7 +6,15 @@ from dataclasses import asdict, dataclass, fields, replace
 
 from occrl.envs import world_constants as C
 
-__all__ = ["TrainConfig", "TRAIN_PRESETS", "get_train_config"]
+__all__ = ["TrainConfig", "TRAIN_PRESETS", "SETTING_CHOICES", "get_train_config"]
+
+# The values a string setting accepts (the trainer checks them; ``occrl train`` offers them).
+SETTING_CHOICES: dict[str, tuple[str, ...]] = {
+    "collector": ("single", "multi", "ray"),
+    "optimizer": ("rmsprop", "adam"),
+    "imitation_teacher": ("scripted", "hybrid", "hybrid-acting", "hierarchical"),
+    "promotion": ("learner", "hybrid"),
+}
 
 
 @dataclass(frozen=True)
@@ -28,73 +36,97 @@ class TrainConfig:
     """
 
     preset: str = "paper"
+    """Name of the preset these settings come from (results name it)."""
     net_preset: str = "paper"
+    """Network architecture (:func:`occrl.modules.make_occnet` preset)."""
     heatmap: bool = True
-    # collection
+    """Train the heat-map head and its BCE loss (False: the greedy / stochastic baselines' network)."""
+
+    # ---- collection
     num_envs: int = 30
+    """Worlds collected in parallel (over all collector workers)."""
     steps_per_env: int = 50
-    collector: str = "single"  # "single" | "multi" (MultiSyncCollector, one env batch per worker)
+    """Steps per world and iteration; every iteration starts all episodes afresh."""
+    collector: str = "single"
+    """TorchRL collector: "single" (one process), "multi" (MultiSyncCollector) or "ray" (RayCollector)."""
     workers: int = 2
-    # where the network and the loss run: "cpu" or "cuda" / "cuda:N" (collectors always act on the CPU,
-    # on a copy of the network synchronised after every update); a run may resume on another device
+    """Collector processes or Ray actors ("multi", "ray"); num_envs must be a multiple of it."""
     device: str = "cpu"
-    # optimisation
-    optimizer: str = "rmsprop"  # "rmsprop" | "adam"
+    """Where the network, loss and optimiser run: "cpu", "cuda" or "cuda:N". Collection always acts on
+    the CPU, on a copy of the network synchronised after every update; a run may resume on another device."""
+
+    # ---- optimisation (the paper: RMSProp, lr 5e-5, c1 0.5, c2 0.01, c3 1.0)
+    optimizer: str = "rmsprop"
+    """"rmsprop" (the paper) or "adam"."""
     lr: float = 5e-5
+    """Learning rate."""
     epochs: int = 4
-    minibatch_envs: int = 10  # sequences per minibatch (each steps_per_env long)
+    """PPO epochs over each collected batch."""
+    minibatch_envs: int = 10
+    """Sequences (each steps_per_env long) per minibatch."""
     max_grad_norm: float = 0.5
+    """Gradient-norm clip."""
     clip_epsilon: float = 0.2
-    critic_coeff: float = 0.5  # c1
-    entropy_coeff: float = 0.01  # c2
-    heatmap_coeff: float = 1.0  # c3
-    heatmap_fraction: float = 1.0  # share of frames whose heat-map is decoded per minibatch
-    batch_norm_frames: int = 1500  # frames used to refresh batch-norm statistics per iteration (0 = frozen)
+    """PPO ratio clip."""
+    critic_coeff: float = 0.5
+    """c1: weight of the value loss."""
+    entropy_coeff: float = 0.01
+    """c2: weight of the entropy bonus."""
+    heatmap_coeff: float = 1.0
+    """c3: weight of the heat-map BCE."""
+    heatmap_fraction: float = 1.0
+    """Share of a minibatch's frames whose heat-map is decoded for the BCE (1: all)."""
+    batch_norm_frames: int = 1500
+    """Frames that refresh the encoder's batch-norm statistics after each update (0: frozen)."""
     gamma: float = C.GAMMA
+    """Discount."""
     gae_lambda: float = 0.95
-    # imitation warm start (DAgger on the privileged scripted retriever); 0 = PPO from scratch
+    """GAE lambda."""
+    target_kl: float = 0.0
+    """> 0: stop an iteration's PPO epochs once a minibatch's approximate KL exceeds 1.5 x this."""
+
+    # ---- imitation (beyond the paper: docs/decisions.md, "Training")
     imitation_iters: int = 0
-    imitation_beta_iters: int = 10  # expert acts with probability decaying 1 -> beta_min over these
-    imitation_beta_min: float = 0.0  # the expert keeps acting this often during the warm start
-    imitation_min_scale: float = 0.1
-    # who labels the learner's frames: "scripted" (the privileged scripted retriever) or "hybrid"
-    # (the hybrid 4x4 planner on the current network, perception only; the learner then always
-    # acts, beta = 0 — expert iteration, beyond the paper; ~40 ms per label on one core), or
-    # "hybrid-acting": the hybrid 4x4 planner on the current network acts in every episode and its
-    # choices are the labels, so the value head regresses on the returns the planner itself
-    # achieves (AlphaZero / MORE style; collector "single", the planner shares the live network), or
-    # "hierarchical": the hierarchical OMPL planner (observations only) acts in a share beta of the
-    # episodes and labels every step of the learner's, re-planning when the learner leaves its
-    # plan (collector "single"; the heat-map target comes from the env as always)
+    """Iterations of DAgger before PPO (0: PPO from the start)."""
     imitation_teacher: str = "scripted"
-    imitation_buffer_iters: int = 8  # DAgger aggregates the labelled data of this many iterations
-    imitation_updates: int = 0  # gradient steps per iteration on the aggregate (0 = epochs over the new batch)
-    # PPO fine-tuning of a warm-started net (beyond the paper): the first critic_warmup_iters PPO
-    # iterations train only the value (and heat-map) head, so advantages are sound before the policy
-    # moves (the value head only: through the shared trunk the critic's early errors would move the
-    # policy); ppo_bc_coeff > 0 adds loss_bc, the expert's negative log-likelihood on every PPO batch
-    # (the privileged scripted retriever labels the learner's own frames, as in DAgger).
+    """Who labels the learner's frames: "scripted" (the privileged scripted retriever), "hybrid" (the
+    hybrid 4x4 planner on the current network labels, the learner acts: expert iteration),
+    "hybrid-acting" (that planner acts and labels, so the value learns the planner's own returns;
+    collector "single") or "hierarchical" (the OMPL hierarchical planner, observations only, acts in
+    a share beta of the episodes and labels every step of the others; collector "single")."""
+    imitation_beta_iters: int = 10
+    """The teacher acts with probability decaying from 1 to imitation_beta_min over these iterations
+    (0: imitation_beta_min from the start)."""
+    imitation_beta_min: float = 0.0
+    """The teacher keeps acting this often (per step; per episode for "hierarchical")."""
+    imitation_min_scale: float = 0.1
+    """Standard-deviation floor of the imitation likelihood."""
+    imitation_buffer_iters: int = 8
+    """DAgger aggregates the labelled data of this many iterations."""
+    imitation_updates: int = 0
+    """Gradient steps per iteration on the aggregate (0: epochs over the new batch only)."""
     critic_warmup_iters: int = 0
-    ppo_bc_coeff: float = 0.0
-    ppo_bc_min_scale: float = 0.1  # standard-deviation floor of loss_bc (below it the term leaves the spread free)
-    freeze_policy_scale: bool = False  # no gradient reaches the policy head's standard-deviation outputs
-    target_kl: float = 0.0  # > 0: stop an iteration's PPO epochs once a minibatch's approximate KL exceeds 1.5 x this
-    # curriculum. promotion="hybrid" is the paper's rule: hybrid 4x4 success > promote_threshold,
-    # measured every promotion_eval_every iterations (imitation or PPO; not during the critic
-    # warm-up) on promotion_eval_tasks fixed validation tasks of the current stage.
-    # promotion="learner" is a cheap proxy: the learner's own success over its last
-    # promote_window training episodes.
+    """PPO iterations, after imitation, that train only the value (and heat-map) head."""
+
+    # ---- curriculum
     start_stage: int = 1
+    """Curriculum stage of a new run (1-3)."""
+    promotion: str = "learner"
+    """"hybrid" (the paper: hybrid 4x4 success on validation tasks > promote_threshold) or "learner"
+    (the learner's own success over its last promote_window training episodes; cheaper)."""
     promote_threshold: float = 0.8
-    promote_window: int = 300  # episodes the success rate is measured over
-    promotion: str = "learner"  # "learner" | "hybrid"
+    """Success rate that promotes to the next stage."""
+    promote_window: int = 300
+    """Training episodes the "learner" rule averages over."""
     promotion_eval_every: int = 50
+    """Iterations between "hybrid" promotion checks (imitation or PPO, not the critic warm-up)."""
     promotion_eval_tasks: int = 30
-    # after a promotion, this many of the collector workers keep collecting tasks of the previous
-    # stage (the others the new one), so what was learnt there keeps its training signal (beyond
-    # the paper; needs collector "multi" or "ray" and fewer than `workers`)
+    """Validation tasks per "hybrid" check (95 % interval about +-15 points at 30, +-8 at 100)."""
     replay_stage_workers: int = 0
+    """Collector workers that keep collecting the previous stage after a promotion (collector
+    "multi" or "ray", fewer than workers)."""
     noise: float = 0.0
+    """Physics noise of the training tasks."""
 
     @property
     def frames_per_batch(self) -> int:
@@ -104,12 +136,49 @@ class TrainConfig:
         return asdict(self)
 
     @classmethod
+    def field_docs(cls) -> dict[str, str]:
+        """Each setting's docstring (the string under its field), by name: the help of the
+        ``occrl train`` options.
+
+        Examples:
+            >>> from occrl.training import TrainConfig
+            >>> TrainConfig.field_docs()["lr"]
+            'Learning rate.'
+        """
+        import ast
+        import inspect
+        import textwrap
+
+        body = ast.parse(textwrap.dedent(inspect.getsource(cls))).body[0].body
+        docs = {}
+        for node, after in zip(body, body[1:]):
+            if isinstance(node, ast.AnnAssign) and isinstance(after, ast.Expr) and isinstance(after.value, ast.Constant):
+                docs[node.target.id] = " ".join(str(after.value.value).split())
+        return docs
+
+    @classmethod
     def from_dict(cls, d: dict) -> "TrainConfig":
+        """Settings from :meth:`to_dict` (e.g. a checkpoint's). Settings occrl has removed are
+        dropped where they were off, and refused with the version that had them otherwise."""
+        d = dict(d)
+        for name, off in REMOVED_SETTINGS.items():
+            if name in d:
+                value = d.pop(name)
+                if off is not None and value != off:
+                    raise ValueError(
+                        f"training setting {name}={value!r} was removed in occrl 0.2.0 (it only served experiments "
+                        f"shown to hurt: docs/decisions.md); use occrl 0.2.0's first commits (git checkout eed1cea) for this run"
+                    )
         names = {f.name for f in fields(cls)}
         unknown = set(d) - names
         if unknown:
             raise ValueError(f"unknown training settings {sorted(unknown)}")
         return cls(**d)
+
+
+# Settings removed from the library and the value that meant "off" (None: inert without the others):
+# the PPO expert term and the frozen policy spread of the fine-tuning ablation.
+REMOVED_SETTINGS = {"ppo_bc_coeff": 0.0, "ppo_bc_min_scale": None, "freeze_policy_scale": False}
 
 
 # What every CPU preset shares on this project's 2-core machines: Adam, two epochs per batch,
@@ -132,17 +201,14 @@ _CPU = TrainConfig(
 
 
 TRAIN_PRESETS: dict[str, TrainConfig] = {
-    # Paper Sec. V / VI-B: RMSProp, lr 5e-5, c1 0.5, c2 0.01, c3 1.0, gamma 0.995, M = 1500,
-    # promotion by hybrid 4x4 success.
+    # The paper (Sec. V / VI-B): RMSProp 5e-5, c1 0.5, c2 0.01, c3 1.0, gamma 0.995, 1,500 frames
+    # per batch, promotion by hybrid 4x4 success.
     "paper": TrainConfig(promotion="hybrid"),
+    # A 2-core CPU machine: Adam, a DAgger warm start on the scripted retriever, then PPO.
     "cpu": _CPU,
-    # PPO after the "cpu" warm start, started from its weights (``occrl train --init-weights occnet``):
-    # the plain continuation (lr 3e-4, entropy bonus, batch-norm refresh) collapsed within 15
-    # iterations. Here: steps 30 times smaller (one Adam step at 3e-5 already moved the policy by
-    # an approximate KL of 0.11), no entropy bonus (the imitated policy explores with its own
-    # spread), 10 value-head-only iterations, early stop at an approximate KL of 0.03, batch-norm
-    # statistics frozen, and the paper's promotion rule. No expert term: every variant with one
-    # degraded (scripts/ppo_finetune_ablation.py; docs/decisions.md).
+    # PPO from a warm-started network (--init-weights occnet): small steps, no entropy bonus, a
+    # value-head warm-up, a KL early stop, frozen batch-norm statistics, the paper's promotion.
+    # Why each: docs/decisions.md, "PPO fine-tuning".
     "cpu-finetune": TrainConfig(
         preset="cpu-finetune",
         **_CPU_MACHINE,
@@ -153,17 +219,10 @@ TRAIN_PRESETS: dict[str, TrainConfig] = {
         batch_norm_frames=0,
         promotion="hybrid",
     ),
-    # The curriculum continued by DAgger from the "cpu" warm start (``occrl train --preset
-    # cpu-curriculum --init-weights occnet --start-stage 2``), beyond the paper: PPO from the warm
-    # start loses the grasp on stage 2 (docs/decisions.md), so the network keeps imitating the
-    # privileged scripted retriever on the states it visits (the expert acts on 30 % of the steps),
-    # on the paper's promotion rule (hybrid 4x4 > 80 % on the validation tasks, every 25
-    # iterations); one of the two collector workers keeps the previous stage. Batch-norm
-    # statistics frozen and Adam at 3e-5: with them refreshed and 1e-4 the first attempt lost
-    # 15 points of stage-1 and 12 of stage-2 success in 158 iterations (docs/decisions.md).
-    # With the scripted teacher it does not improve the net; with ``--imitation-teacher hybrid``
-    # (expert iteration; use ``--num-envs 8``, labels cost a planner decision each) it does.
-    # Otherwise the "cpu" preset's settings.
+    # The curriculum continued by imitation from a warm-started network (--init-weights occnet
+    # --start-stage 2; choose the teacher with --imitation-teacher), the teacher acting on 30 % of
+    # the steps, the paper's promotion check every 25 iterations, one worker replaying the
+    # previous stage. What each teacher achieved: docs/experiments.md, "Training".
     "cpu-curriculum": replace(
         _CPU,
         preset="cpu-curriculum",

@@ -91,18 +91,6 @@ def training_device(name: str) -> torch.device:
     return device
 
 
-def _freeze_scale_outputs(net) -> None:
-    """Zero the gradient of the rows of the policy head's last layer that produce the standard
-    deviations (the head writes ``loc, scale = chunk(2)``), so the update moves only the means
-    (the shared trunk still moves both)."""
-    last = net.actor.module[0].module.net[-1]
-    half = last.out_features // 2
-    mask = torch.ones(last.out_features, 1)
-    mask[half:] = 0.0
-    last.weight.register_hook(lambda g: g * mask)
-    last.bias.register_hook(lambda g: g * mask.squeeze(-1))
-
-
 def _complete_row(line: str) -> bool:
     """Whether a metrics line is a whole JSON row (a crash mid-append leaves a partial one)."""
     try:
@@ -119,12 +107,10 @@ def _sha256(path: str | Path) -> str:
 
 def _same_run_settings(saved: dict, current: dict) -> bool:
     """Equal training settings, except a run collected by "multi" may resume on "ray" and back, and
-    the expert term's spread floor does not count without an expert term. Settings added after a
-    checkpoint was written take their defaults (the behaviour it ran with)."""
+    on any device. Settings added after a checkpoint was written take their defaults (the behaviour
+    it ran with); settings removed since are dropped where they were off
+    (:meth:`TrainConfig.from_dict` refuses them otherwise)."""
     saved = TrainConfig.from_dict(saved).to_dict()
-    for cfg in (saved, current):  # a setting without effect does not tell runs apart
-        if cfg.get("ppo_bc_coeff", 0.0) == 0.0:
-            cfg.pop("ppo_bc_min_scale", None)
     for key, interchangeable in _RUNTIME_SETTINGS.items():
         if saved.get(key) in interchangeable and current.get(key) in interchangeable:
             saved, current = {**saved, key: None}, {**current, key: None}
@@ -258,11 +244,7 @@ class Trainer:
             heatmap_coeff=config.heatmap_coeff,
             gamma=config.gamma,
             heatmap_fraction=config.heatmap_fraction,
-            bc_coeff=config.ppo_bc_coeff,
-            bc_min_scale=config.ppo_bc_min_scale,
         )
-        if config.freeze_policy_scale:
-            _freeze_scale_outputs(self.net)
         params = list(self.net.parameters())
         if config.optimizer == "rmsprop":
             self.optimizer = torch.optim.RMSprop(params, lr=config.lr)
@@ -656,7 +638,7 @@ class Trainer:
                     data.set("expert_action", data.get("action").clone())  # the planner acted
                 elif c.imitation_teacher == "hierarchical":
                     pass  # labelled while collecting (OnlineTeacherPolicy), in every phase
-                elif phase == "imitation" or c.ppo_bc_coeff > 0:
+                elif phase == "imitation":
                     label_with_expert(data, self.expert)
                 batch = self._on_device(data)  # the collected batch (CPU) where the learner is
                 compute_advantages(self.net, batch, c.gamma, c.gae_lambda)

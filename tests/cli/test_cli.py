@@ -155,3 +155,41 @@ def test_sweep_shows_one_bar_and_ends_with_its_tables(tmp_path, capsys):
     assert "scripted stage" not in err  # no bar per point
     table = sweep_tables(summarize_sweep(tmp_path))
     assert table.startswith("success (%) against clutter (2 tasks per point):") and "| scripted |" in table
+
+
+def test_every_training_setting_is_documented_and_settable_from_the_command_line():
+    from dataclasses import fields
+
+    from occrl.cli import make_parser
+    from occrl.training import TrainConfig
+
+    docs = TrainConfig.field_docs()
+    names = [f.name for f in fields(TrainConfig)]
+    assert set(docs) == set(names) and all(len(d) > 5 for d in docs.values())  # a docstring per field
+    samples = {bool: ("--no-{}", False), int: ("--{}", "3"), float: ("--{}", "0.5"), str: ("--{}", None)}
+    from occrl.modules import PRESETS
+    from occrl.training.config import SETTING_CHOICES
+
+    for f in fields(TrainConfig):
+        if f.name == "preset":
+            continue
+        kind = {"bool": bool, "int": int, "float": float, "str": str}[f.type] if isinstance(f.type, str) else f.type
+        flag, value = samples[kind]
+        flag = flag.format(f.name.replace("_", "-"))
+        if kind is str:
+            value = (list(PRESETS) if f.name == "net_preset" else SETTING_CHOICES.get(f.name, ("cpu",)))[-1]
+        argv = ["train", "--run-dir", "x", flag] + ([] if kind is bool else [value])
+        args = make_parser().parse_args(argv)
+        expected = {bool: False, int: 3, float: 0.5, str: value}[kind]
+        assert getattr(args, f.name) == expected, f.name
+
+
+def test_train_options_reach_the_config(tmp_path, capsys):
+    assert main(["train", "--preset", "tiny", "--run-dir", str(tmp_path / "r"), "--iterations", "1", "--lr", "0.002",
+                 "--no-heatmap", "--num-envs", "2", "--no-progress"]) == 0  # fmt: skip
+    from occrl.training.checkpoint import load_checkpoint
+
+    cfg = load_checkpoint(tmp_path / "r" / "checkpoint.pt")["train_config"]
+    assert cfg["lr"] == 0.002 and cfg["heatmap"] is False and cfg["num_envs"] == 2 and cfg["preset"] == "tiny"
+    assert main(["train", "--preset", "tiny", "--run-dir", str(tmp_path / "s"), "--gamma", "0"]) == 2
+    assert "--gamma: 0 is out of range; allowed: a number in (0, 1]" in capsys.readouterr().err

@@ -44,7 +44,7 @@ def test_specs_match_shelf_env_and_check_env_specs_passes():
     assert env.observation_spec == ref.observation_spec
     assert env.action_spec == ref.action_spec and env.reward_spec == ref.reward_spec and env.done_spec == ref.done_spec
     check_env_specs(env)
-    check_env_specs(make_env(batch_size=1, stage=1, seed=0, backend="mujoco"))
+    check_env_specs(make_env(batch_size=1, stage=1, seed=0, world="mujoco"))
     # the same seed gives the same scenes as the 2D env (objects rest where the scene puts them)
     a = MujocoShelfEnv(batch_size=2, stage=2, seed=0, visibility="rays").reset()
     b = ShelfEnv(batch_size=2, stage=2, seed=0).reset()
@@ -205,3 +205,11 @@ def test_importing_occrl_envs_does_not_need_mujoco():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert 'pip install -e ".[mujoco]"' in out.stdout
+
+
+def test_make_env_backend_is_now_world():
+    with pytest.warns(DeprecationWarning, match=r"make_env\(world=...\)"):
+        env = make_env(batch_size=1, stage=1, seed=0, backend="pymunk")
+    assert env.reset()["pixels"].shape[-1] == 64
+    with pytest.raises(ValueError, match="world must be 'pymunk' or 'mujoco'"):
+        make_env(batch_size=1, world="box2d")

@@ -40,6 +40,6 @@ def test_mujoco_frames_show_the_gripper_camera():
     if not gl_available()[0]:
         pytest.skip("no OpenGL backend for MuJoCo camera images")
     plain = make_env(batch_size=1, stage=1, seed=0, heatmap_target=False).reset()[0]
-    td = make_env(batch_size=1, stage=1, seed=0, heatmap_target=False, backend="mujoco", record_camera=True).reset()[0]
+    td = make_env(batch_size=1, stage=1, seed=0, heatmap_target=False, world="mujoco", record_camera=True).reset()[0]
     assert td["camera_rgb"].shape[0] == 3 and int(td["camera_rgb"].max()) > 0
     assert frame(td).shape[1] > frame(plain).shape[1] + 200  # a third panel: the camera image

@@ -80,35 +80,28 @@ def test_frozen_batch_norm_statistics(tmp_path):
     assert all(torch.equal(v, tr.net.encoder.state_dict()[k]) for k, v in stats.items())
 
 
-def test_loss_bc_and_kl_early_stop(tmp_path):
-    cfg = get_train_config("tiny", ppo_bc_coeff=0.5, epochs=3, target_kl=1e-9, optimizer="adam", lr=1e-2)
+def test_kl_early_stop(tmp_path):
+    cfg = get_train_config("tiny", epochs=3, target_kl=1e-9, optimizer="adam", lr=1e-2)
     tr = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False)
     tr.train(iterations=2)
     tr.close()
     rows = _rows(tmp_path)
-    assert all("loss_bc" in r for r in rows)
     # 3 epochs x 2 minibatches would be 6 updates; the first large step exceeds the KL target
     assert all(1 <= r["updates"] < 6 for r in rows)
 
 
-def test_loss_bc_needs_expert_labels():
-    from tensordict import TensorDict
-
-    from occrl.objectives import PPOHeatmapLoss
-
-    net = make_occnet("paper")
-    loss = PPOHeatmapLoss(net, bc_coeff=1.0)
-    with pytest.raises(KeyError, match="expert_action"):
-        loss.forward(TensorDict({"pixels": torch.zeros(1, 2, 3, 64, 64)}, batch_size=[1, 2]))
-
-
-def test_the_expert_terms_floor_without_an_expert_term_does_not_split_runs():
+def test_removed_settings_resume_when_off_and_are_refused_when_on(tmp_path):
+    from occrl.training import TrainConfig
     from occrl.training.trainer import _same_run_settings
 
     base = get_train_config("cpu-finetune")
-    assert _same_run_settings({**base.to_dict(), "ppo_bc_min_scale": 0.01}, base.to_dict())
-    with_bc = get_train_config("cpu-finetune", ppo_bc_coeff=1.0)
-    assert not _same_run_settings({**with_bc.to_dict(), "ppo_bc_min_scale": 0.01}, with_bc.to_dict())
+    old = {**base.to_dict(), "ppo_bc_coeff": 0.0, "ppo_bc_min_scale": 0.01, "freeze_policy_scale": False}
+    assert TrainConfig.from_dict(old) == base and _same_run_settings(old, base.to_dict())
+    for name, value in (("ppo_bc_coeff", 1.0), ("freeze_policy_scale", True)):
+        with pytest.raises(ValueError, match=f"{name}={value!r} was removed in occrl 0.2.0.*git checkout eed1cea"):
+            TrainConfig.from_dict({**old, name: value})
+    with pytest.raises(TypeError):
+        get_train_config("tiny", ppo_bc_coeff=0.5)  # no longer a setting
 
 
 def test_replay_workers_keep_the_previous_stage(tmp_path):
