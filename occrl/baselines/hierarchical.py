@@ -96,7 +96,12 @@ from occrl.baselines.kinodynamic import (
     steer_action,
 )
 
-__all__ = ["HierarchicalPlanner"]
+__all__ = ["HierarchicalPlanner", "ACTION_KINDS"]
+
+# What an action of the planner does (``HierarchicalPlanner.last_action_kinds``): a Search sweep
+# step, a Move_out step, or a step of a low-level plan (reach / extract the target, reach / place
+# an object being rearranged).
+ACTION_KINDS = ("search", "move_out", "reach", "extract", "rearrange_reach", "place")
 
 logger = logging.getLogger(__name__)
 
@@ -123,6 +128,7 @@ class _Episode:
     awaiting: np.ndarray | None = None  # the pose the last executed queued action should have led to
     queue_kind: str | None = None  # what the queue does: "reach", "extract", "rearrange_reach", "place", "move_out"
     replans: int = 0  # plans dropped because the world stopped following them (``follow_tolerance``)
+    last_kind: str = "search"  # what the last action did: "search" or a queue kind (ACTION_KINDS)
     stage: str = "search"
     sweep: list | None = None  # waypoints left in the current sweep
     sweep_full: bool = True  # the current sweep does not stop when the target comes into view
@@ -258,6 +264,11 @@ class HierarchicalPlanner(TensorDictModuleBase):
         return [ep.planning_seconds for ep in self.episodes]
 
     @property
+    def last_action_kinds(self) -> list[str]:
+        """What the last action of each world did (one of :data:`ACTION_KINDS`)."""
+        return [ep.last_kind for ep in self.episodes]
+
+    @property
     def last_plans(self) -> list[PlanResult]:
         return [p for ep in self.episodes for p in ep.plans]
 
@@ -289,6 +300,7 @@ class HierarchicalPlanner(TensorDictModuleBase):
         """The next action of one world (observation without batch dims)."""
         pose = obs.get("gripper_pose").cpu().numpy().astype(float)
         ep.step += 1
+        ep.last_kind = "search"  # unless the action comes from a queued plan (_pop)
         if self.follow_tolerance is not None and ep.awaiting is not None and self._strayed(pose, ep.awaiting):
             self._drop_plan(ep, bool(obs.get("gripper_closed").reshape(-1)[0]))
         ep.awaiting = None
@@ -308,6 +320,7 @@ class HierarchicalPlanner(TensorDictModuleBase):
     def _pop(self, ep: _Episode) -> np.ndarray:
         """The next queued action; remembers the pose the simulator predicted after it."""
         ep.awaiting = ep.expected.popleft() if ep.expected else None
+        ep.last_kind = ep.queue_kind or "search"
         return ep.queue.popleft()
 
     def _strayed(self, pose: np.ndarray, expected: np.ndarray) -> bool:

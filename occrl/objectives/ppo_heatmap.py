@@ -136,7 +136,11 @@ def _expert_nll(policy_head, tensordict: TensorDictBase, min_scale: float) -> to
     td = policy_head(tensordict.select("belief").copy())
     loc, scale = td.get("loc"), td.get("scale").clamp_min(min_scale)
     dist = torch.distributions.Normal(loc, scale)
-    return -dist.log_prob(tensordict.get("expert_action")).sum(-1).mean()
+    nll = -dist.log_prob(tensordict.get("expert_action")).sum(-1)
+    if "expert_weight" not in tensordict.keys():
+        return nll.mean()
+    weight = tensordict.get("expert_weight").reshape(nll.shape).to(nll.dtype)
+    return (weight * nll).sum() / weight.sum().clamp_min(1.0)
 
 
 def imitation_nll(net: OccNet, tensordict: TensorDictBase, min_scale: float = 0.1) -> torch.Tensor:
@@ -144,6 +148,8 @@ def imitation_nll(net: OccNet, tensordict: TensorDictBase, min_scale: float = 0.
 
     The trunk must already have written ``"belief"`` (with gradients). The standard deviation is
     floored at ``min_scale`` in this loss so imitation does not collapse exploration for PPO.
+    With an ``"expert_weight"`` entry (0 or 1 per frame: a teacher that labels only some
+    situations) the mean is over the weighted frames only.
 
     Examples:
         >>> import torch

@@ -94,6 +94,10 @@ class TrainConfig:
     "hybrid-acting" (that planner acts and labels, so the value learns the planner's own returns;
     collector "single") or "hierarchical" (the OMPL hierarchical planner, observations only, acts in
     a share beta of the episodes and labels every step of the others; collector "single")."""
+    teacher_label_kinds: str = "all"
+    """Which of the "hierarchical" teacher's steps are labels: "all", or comma-separated action kinds
+    (occrl.baselines.hierarchical.ACTION_KINDS), e.g. "reach,extract": the teacher teaches the
+    retrieval of a located target and leaves the search to the learner."""
     imitation_beta_iters: int = 10
     """The teacher acts with probability decaying from 1 to imitation_beta_min over these iterations
     (0: imitation_beta_min from the start)."""

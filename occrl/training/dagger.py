@@ -82,6 +82,11 @@ class OnlineTeacherPolicy(ExpertMixPolicy):
     hierarchical planner with ``follow_tolerance`` (it re-plans when the learner leaves its plan);
     the teacher's memory lives in this process, so collect with a single-process collector.
 
+    ``label_kinds``: label only the steps where the teacher's action is of these kinds (its
+    ``last_action_kinds``, e.g. ``("reach", "extract")``: the teacher teaches the retrieval of a
+    located target and leaves the search to the learner); ``"expert_weight"`` is 1 on those steps
+    and 0 elsewhere (:func:`occrl.objectives.imitation_nll` averages over the labelled ones).
+
     Examples:
         >>> import torch
         >>> from occrl.baselines import HierarchicalPlanner
@@ -96,12 +101,17 @@ class OnlineTeacherPolicy(ExpertMixPolicy):
         (torch.Size([2, 3, 4]), False)
     """
 
-    def __init__(self, policy: TensorDictModuleBase, teacher: TensorDictModuleBase, beta: float = 0.0) -> None:
+    def __init__(
+        self, policy: TensorDictModuleBase, teacher: TensorDictModuleBase, beta: float = 0.0, label_kinds: tuple[str, ...] | None = None
+    ) -> None:
         super().__init__(policy, teacher, beta)
         if "privileged" in teacher.in_keys:
             raise ValueError("the online teacher must read observations only; its in_keys contain 'privileged'")
+        if label_kinds is not None and not hasattr(teacher, "last_action_kinds"):
+            raise ValueError(f"label_kinds needs a teacher that reports last_action_kinds; {type(teacher).__name__} does not")
+        self.label_kinds = None if label_kinds is None else tuple(label_kinds)
         self.in_keys = list(dict.fromkeys(list(policy.in_keys) + list(teacher.in_keys)))
-        self.out_keys = list(policy.out_keys) + ["expert_action", "teacher_acts"]
+        self.out_keys = list(policy.out_keys) + ["expert_action", "teacher_acts"] + (["expert_weight"] if label_kinds is not None else [])
         self._teacher_acts: torch.Tensor | None = None  # per world: the teacher acts in this episode
 
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
@@ -114,6 +124,10 @@ class OnlineTeacherPolicy(ExpertMixPolicy):
         self._teacher_acts = torch.where(is_init, draw, self._teacher_acts)
         acts = self._teacher_acts.unsqueeze(-1)
         tensordict.set("expert_action", label)
+        if self.label_kinds is not None:
+            kinds = self.expert.last_action_kinds
+            weight = torch.tensor([k in self.label_kinds for k in kinds], dtype=torch.float32).reshape(*label.shape[:-1], 1)
+            tensordict.set("expert_weight", weight)
         tensordict.set("teacher_acts", acts.clone())
         tensordict.set("action", torch.where(acts, label, tensordict.get("action")))
         return tensordict

@@ -14,7 +14,16 @@ from tensordict import TensorDict, TensorDictBase
 
 __all__ = ["DaggerBuffer"]
 
-_KEYS = ["pixels", "is_init", "recurrent_state_h", "recurrent_state_c", "expert_action", "value_target", ("privileged", "heatmap_target")]
+_KEYS = [
+    "pixels",
+    "is_init",
+    "recurrent_state_h",
+    "recurrent_state_c",
+    "expert_action",
+    "expert_weight",
+    "value_target",
+    ("privileged", "heatmap_target"),
+]
 
 
 class DaggerBuffer:

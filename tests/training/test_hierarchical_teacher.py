@@ -123,3 +123,48 @@ def test_trainer_with_the_hierarchical_teacher(tmp_path):
     assert torch.isfinite(torch.tensor(row["loss_imitation"])) and torch.isfinite(torch.tensor(row["loss_critic"]))
     with pytest.raises(ValueError, match="needs collector 'single'"):
         Trainer(get_train_config("tiny", imitation_teacher="hierarchical", collector="multi"), tmp_path / "b", seed=0, progress=False)
+
+
+def test_labels_only_of_the_chosen_kinds():
+    """label_kinds=("reach", "extract"): the teacher labels the retrieval of a located target only."""
+    torch.manual_seed(0)
+    net = make_occnet("paper").eval()
+    env = make_env(batch_size=1, scenes=[scene([(0.05, 0.2, 0.4, True)])]).append_transform(net.make_primer())
+    teacher = HierarchicalPlanner(seed=0, follow_tolerance=TOLERANCE)
+    data = env.rollout(C.MAX_EPISODE_STEPS, OnlineTeacherPolicy(net.policy, teacher, beta=1.0, label_kinds=("reach", "extract")))
+    assert data["next", "success"].any()  # the teacher acted and retrieved the visible target
+    weight = data["expert_weight"].squeeze(-1)
+    assert 0 < int(weight.sum()) < data.shape[-1]  # the sweep's first steps are not labels, the plans' are
+    assert weight[0, -1] == 1.0 and weight[0, 0] == 0.0
+    from occrl.planners import HybridPlanner
+
+    with pytest.raises(ValueError, match="last_action_kinds"):
+        OnlineTeacherPolicy(net.policy, HybridPlanner(net), label_kinds=("reach",))
+
+
+def test_weighted_imitation_averages_over_labelled_frames():
+    from tensordict import TensorDict
+
+    from occrl.objectives import imitation_nll
+
+    net = make_occnet("paper")
+    belief = torch.randn(4, 128)
+    labels = torch.rand(4, 4) * 2 - 1
+    full = imitation_nll(net, TensorDict({"belief": belief, "expert_action": labels}, batch_size=[4]))
+    first_two = imitation_nll(net, TensorDict({"belief": belief[:2], "expert_action": labels[:2]}, batch_size=[2]))
+    weighted = imitation_nll(
+        net, TensorDict({"belief": belief, "expert_action": labels, "expert_weight": torch.tensor([[1.0], [1.0], [0.0], [0.0]])}, [4])
+    )
+    assert torch.allclose(weighted, first_two) and not torch.allclose(weighted, full)
+
+
+def test_label_kinds_setting_is_checked(tmp_path):
+    with pytest.raises(ValueError, match="teacher_label_kinds must be"):
+        Trainer(get_train_config("tiny", teacher_label_kinds="reach"), tmp_path / "a", seed=0, progress=False)  # scripted teacher
+    with pytest.raises(ValueError, match="teacher_label_kinds must be"):
+        Trainer(
+            get_train_config("tiny", imitation_teacher="hierarchical", collector="single", teacher_label_kinds="grasp"),
+            tmp_path / "b",
+            seed=0,
+            progress=False,
+        )
