@@ -17,7 +17,9 @@ import time
 
 import numpy as np
 
-from occrl.baselines.kinodynamic import CLOSE, OPEN, HoldGoal, ReachGoal, SimControlProblem, grasp_poses, ompl_seed
+from occrl.baselines.goals import HoldGoal, ReachGoal, grasp_poses
+from occrl.baselines.kinodynamic import SimControlProblem, ompl_seed
+from occrl.baselines.motion import CLOSE, OPEN
 from occrl.envs import Scene, ShelfWorld
 from occrl.envs import world_constants as C
 

@@ -338,12 +338,12 @@ def _export(args: argparse.Namespace) -> int:
 
     import torch
 
-    from occrl.pretrained import _DIR, _FILES
+    from occrl.pretrained import PRETRAINED_DIR, PRETRAINED_FILES
     from occrl.training.checkpoint import load_checkpoint, load_weights, save_weights
     from occrl.training.plots import read_metrics
 
-    if args.name not in _FILES:
-        print(f"name must be one of {sorted(_FILES)}", file=sys.stderr)
+    if args.name not in PRETRAINED_FILES:
+        print(f"name must be one of {sorted(PRETRAINED_FILES)}", file=sys.stderr)
         return 2
     run = Path(args.run_dir)
     weights_path = run / (args.weights or "weights.pt")
@@ -372,9 +372,9 @@ def _export(args: argparse.Namespace) -> int:
     if started_from:  # the run began from another network (--init-weights): its own training comes first
         card["init_weights"] = Path(started_from["path"]).name
         card["summary"] += f", started from {Path(started_from['path']).name}"
-    dest = Path(args.dest) if args.dest else _DIR
+    dest = Path(args.dest) if args.dest else PRETRAINED_DIR
     dest.mkdir(parents=True, exist_ok=True)
-    save_weights(dest / _FILES[args.name], net, card)
+    save_weights(dest / PRETRAINED_FILES[args.name], net, card)
     cards_path = dest / "model_cards.json"
     cards = json.loads(cards_path.read_text()) if cards_path.exists() else {}
     cards[args.name] = card

@@ -6,10 +6,10 @@ import pytest
 import torch
 
 from occrl.cli import main
-from occrl.pretrained import _FILES, available, load_pretrained, model_card, pretrained_path
+from occrl.pretrained import PRETRAINED_FILES, available, load_pretrained, model_card, pretrained_path
 
 
-@pytest.mark.parametrize("name", sorted(_FILES))
+@pytest.mark.parametrize("name", sorted(PRETRAINED_FILES))
 def test_every_shipped_network_loads_and_has_its_card(name):
     assert name in available()
     raw = torch.load(pretrained_path(name), map_location="cpu", weights_only=True)  # no pickled code

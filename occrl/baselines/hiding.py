@@ -10,7 +10,7 @@ from occrl.envs import world_constants as C
 from occrl.envs.geometry import point_in_convex_polygon, polygons_overlap, transform_points
 from occrl.envs.world import gripper_polygons, wall_polygons
 
-__all__ = ["HidingRegion"]
+__all__ = ["HidingRegion", "probe_points"]
 
 _WALLS = wall_polygons()
 
@@ -96,7 +96,7 @@ class HidingRegion:
         return not self.mask.any()
 
 
-def _probe_points(opening: float, spacing: float = 0.01) -> np.ndarray:
+def probe_points(opening: float, spacing: float = 0.01) -> np.ndarray:
     """Points every ``spacing`` along the outline of every gripper part (gripper frame)."""
     pts = []
     for poly in gripper_polygons(opening):

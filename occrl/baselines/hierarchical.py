@@ -77,22 +77,18 @@ from occrl.envs.world import ShelfWorld, gripper_polygons
 from occrl.planners.recreate import RecreatedState, make_world
 
 from occrl.baselines.hiding import HidingRegion
-from occrl.baselines.kinodynamic import (
+from occrl.baselines.goals import GoalSpec, HoldGoal, ReachGoal, grasp_poses
+from occrl.baselines.kinodynamic import PlanResult, SimControlProblem
+from occrl.baselines.motion import (
     CLOSE,
     OPEN,
-    _OUT_Y,
-    _STALE_OVERLAP,
-    _STROKE_HALF,
-    HoldGoal,
-    PlanResult,
-    ReachGoal,
-    SimControlProblem,
-    _allowed,
-    _at,
-    _GoalSpec,
-    _inside,
-    _intrusions,
-    grasp_poses,
+    OUT_Y,
+    STALE_OVERLAP,
+    STROKE_HALF,
+    count_intrusions,
+    is_at,
+    is_inside_shelf,
+    motion_allowed,
     steer_action,
 )
 
@@ -225,8 +221,8 @@ class HierarchicalPlanner(TensorDictModuleBase):
             raise ValueError(f"plan_seconds must be > 0, got {plan_seconds}")
         if sweep_from not in ("left", "nearest"):
             raise ValueError(f"sweep_from must be 'left' or 'nearest', got {sweep_from!r}")
-        if not C.GRIPPER_Y_LIMITS[0] <= search_y <= _OUT_Y:
-            raise ValueError(f"search_y must be in [{C.GRIPPER_Y_LIMITS[0]}, {_OUT_Y}] (outside the shelf, reachable), got {search_y}")
+        if not C.GRIPPER_Y_LIMITS[0] <= search_y <= OUT_Y:
+            raise ValueError(f"search_y must be in [{C.GRIPPER_Y_LIMITS[0]}, {OUT_Y}] (outside the shelf, reachable), got {search_y}")
         if not 0.0 < sweep_x <= C.GRIPPER_X_LIMITS[1]:
             raise ValueError(f"sweep_x must be in (0, {C.GRIPPER_X_LIMITS[1]}] m (the reachable width), got {sweep_x}")
         for name, value in (("extract_margin", extract_margin), ("place_radius", place_radius)):
@@ -383,9 +379,9 @@ class HierarchicalPlanner(TensorDictModuleBase):
             poly = transform_points(k.vertices, k.pose)
             fresh = k.seen_step == ep.step
             # pymunk lets bodies in contact overlap by a few mm: only deeper overlaps mean stale
-            if any(polygons_overlap(poly, q, clearance=-_STALE_OVERLAP) for _, q in kept):
+            if any(polygons_overlap(poly, q, clearance=-STALE_OVERLAP) for _, q in kept):
                 continue
-            if not fresh and any(polygons_overlap(poly, g, clearance=-_STALE_OVERLAP) for g in gripper):
+            if not fresh and any(polygons_overlap(poly, g, clearance=-STALE_OVERLAP) for g in gripper):
                 continue
             kept.append((k, poly))
         kept.sort(key=lambda kp: kp[0].type_id)
@@ -400,7 +396,7 @@ class HierarchicalPlanner(TensorDictModuleBase):
         """Advance the state machine by one stage; an action (or None: the next stage decides)."""
         if ep.stage == "move_out":
             ep.stage = "search"
-            if not _inside(pose):
+            if not is_inside_shelf(pose):
                 return None
             actions, poses = self._move_out(ep, obs, pose)
             ep.queue.extend(actions)
@@ -418,10 +414,10 @@ class HierarchicalPlanner(TensorDictModuleBase):
                 ep.force_sweep = False
             if not ep.sweep_full and ep.target_in_view:
                 ep.sweep = []  # located: this Search is over
-            elif _inside(pose):  # Search starts outside the shelf
+            elif is_inside_shelf(pose):  # Search starts outside the shelf
                 ep.stage = "move_out"
                 return None
-            while ep.sweep and _at(pose, ep.sweep[0], tol_xy=2e-3, tol_th=math.radians(1.0)):
+            while ep.sweep and is_at(pose, ep.sweep[0], tol_xy=2e-3, tol_th=math.radians(1.0)):
                 ep.sweep.pop(0)
             if ep.sweep:
                 return steer_action(pose, ep.sweep[0], OPEN)
@@ -429,7 +425,7 @@ class HierarchicalPlanner(TensorDictModuleBase):
             ep.stage = "decide"
             return None
         if ep.out_of_time:
-            if _inside(pose):
+            if is_inside_shelf(pose):
                 ep.stage = "move_out"
                 return None
             return np.array([0.0, 0.0, 0.0, OPEN])
@@ -508,7 +504,7 @@ class HierarchicalPlanner(TensorDictModuleBase):
             return False
         return True
 
-    def _solve(self, ep: _Episode, world: ShelfWorld, goal: _GoalSpec, grip: float, finish=None, t0=None, forbidden=None) -> PlanResult:
+    def _solve(self, ep: _Episode, world: ShelfWorld, goal: GoalSpec, grip: float, finish=None, t0=None, forbidden=None) -> PlanResult:
         t0 = time.perf_counter() if t0 is None else t0
         self._queries += 1
         seed = self.seed * 100_003 + self._queries
@@ -594,9 +590,9 @@ class HierarchicalPlanner(TensorDictModuleBase):
         obj = state.objects[i]
         others = [o.world_vertices() for j, o in enumerate(state.objects) if j != i]
         r = float(np.linalg.norm(obj.vertices, axis=1).max())
-        xmax = C.SHELF_HALF_WIDTH - max(r, _STROKE_HALF + C.FINGER_WIDTH) - 0.01
+        xmax = C.SHELF_HALF_WIDTH - max(r, STROKE_HALF + C.FINGER_WIDTH) - 0.01
         hiding = self._hiding(ep, state)
-        half = max(r, _STROKE_HALF + C.FINGER_WIDTH) * 0.8
+        half = max(r, STROKE_HALF + C.FINGER_WIDTH) * 0.8
         start = np.asarray(obj.pose[:2], float)
         best, best_key = None, None
         for y in (C.SHELF_DEPTH - r - 0.015, C.SHELF_DEPTH - r - 0.065):
@@ -633,8 +629,8 @@ class HierarchicalPlanner(TensorDictModuleBase):
         start = world.snapshot()
         baseline = None
         if forbidden is not None:
-            baseline = _intrusions(world.gripper_pose(), world.opening, world.nominal_vertices, world.object_poses(), forbidden)
-        out_y = min(self.search_y, _OUT_Y - 0.005)
+            baseline = count_intrusions(world.gripper_pose(), world.opening, world.nominal_vertices, world.object_poses(), forbidden)
+        out_y = min(self.search_y, OUT_Y - 0.005)
         x, y, th = (float(v) for v in pose)
         toward_centre = -1.0 if x > 0 else 1.0
         candidates = {
@@ -649,28 +645,30 @@ class HierarchicalPlanner(TensorDictModuleBase):
         for name, waypoints in candidates.items():
             world.restore(start)
             actions, poses, ok, k = [], [], True, 0
-            while _inside(world.gripper_pose()) and len(actions) < 15 and (best is None or len(actions) < len(best)):
+            while is_inside_shelf(world.gripper_pose()) and len(actions) < 15 and (best is None or len(actions) < len(best)):
                 p = world.gripper_pose()
                 if waypoints is None:
                     a = np.array([-1.0, 0.0, 0.0, OPEN])
                 else:
-                    while k < len(waypoints) - 1 and _at(p, waypoints[k], tol_xy=2e-3, tol_th=math.radians(1.0)):
+                    while k < len(waypoints) - 1 and is_at(p, waypoints[k], tol_xy=2e-3, tol_th=math.radians(1.0)):
                         k += 1
                     a = steer_action(p, waypoints[k], OPEN)
                 out = world.step(a)
                 actions.append(a)
                 poses.append(world.gripper_pose())
-                allowed = _allowed(world.gripper_pose(), world.opening, world.nominal_vertices, world.object_poses(), forbidden, baseline)
+                allowed = motion_allowed(
+                    world.gripper_pose(), world.opening, world.nominal_vertices, world.object_poses(), forbidden, baseline
+                )
                 if out.dropped or not allowed:
                     ok = False
                     break
-            if ok and not _inside(world.gripper_pose()) and (best is None or len(actions) < len(best)):
+            if ok and not is_inside_shelf(world.gripper_pose()) and (best is None or len(actions) < len(best)):
                 best, best_poses = actions, poses
         if best is None:
             logger.warning("move out: every candidate motion collides in the simulator; backing straight out")
             world.restore(start)
             best, best_poses = [], []
-            while _inside(world.gripper_pose()) and len(best) < 15:
+            while is_inside_shelf(world.gripper_pose()) and len(best) < 15:
                 best.append(steer_action(world.gripper_pose(), candidates["straight back"][0], OPEN))
                 world.step(best[-1])
                 best_poses.append(world.gripper_pose())

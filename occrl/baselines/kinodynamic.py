@@ -36,6 +36,9 @@ OMPL formulation (:class:`SimControlProblem`):
   states replaces the rest of the path (up to another 25 % of the budget, at least 0.2 s). The
   final action list is replayed from the start snapshot to confirm validity and the goal, and its
   end state becomes the robot's prediction of the objects it no longer sees.
+
+The goal regions live in :mod:`occrl.baselines.goals`, steering and validity in
+:mod:`occrl.baselines.motion`; this module holds the OMPL problem.
 """
 
 from __future__ import annotations
@@ -48,8 +51,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from occrl.envs import world_constants as C
-from occrl.envs.geometry import polygons_overlap, transform_points
-from occrl.envs.world import ShelfWorld, gripper_polygons, inverse_pose, wall_polygons
+from occrl.envs.world import ShelfWorld
 
 try:  # OMPL 2.x (nanobind bindings)
     from ompl import base as ob
@@ -60,32 +62,13 @@ try:  # OMPL 2.x (nanobind bindings)
 except ImportError:  # pragma: no cover - the baseline needs OMPL
     ob = oc = ou = None
 
-from occrl.baselines.hiding import HidingRegion, _probe_points
+from occrl.baselines.goals import GoalSpec, ReachGoal, SimEntry, compose_pose
+from occrl.baselines.hiding import HidingRegion
+from occrl.baselines.motion import count_intrusions, is_at, motion_allowed, steer_action
 
-__all__ = [
-    "SimControlProblem",
-    "PlanResult",
-    "ReachGoal",
-    "HoldGoal",
-    "grasp_poses",
-    "steer_action",
-    "ompl_seed",
-    "OPEN",
-    "CLOSE",
-    "WALL_TOLERANCE",
-]
+__all__ = ["SimControlProblem", "PlanResult", "ompl_seed"]
 
 logger = logging.getLogger("occrl.baselines.hierarchical")
-
-WALL_TOLERANCE = 0.003  # m of wall penetration that counts as invalid
-OPEN = -1.0
-CLOSE = 1.0
-_WALLS = wall_polygons()
-_WALL_BOXES = [(w[:, 0].min(), w[:, 0].max(), w[:, 1].min(), w[:, 1].max()) for w in _WALLS]
-_STROKE_HALF = C.GRIPPER_STROKE / 2
-_OUT_Y = -0.07  # gripper origin behind this line (and |theta| <= 45 deg): no part is in the shelf
-_MAX_GRASP_ANGLE = math.radians(50.0)  # reach goals: grasps with the arm turned at most this much
-_STALE_OVERLAP = 0.005  # a remembered object overlapping a fresher one or the gripper deeper than this is stale
 
 
 def ompl_seed(seed: int) -> None:
@@ -109,318 +92,14 @@ def ompl_seed(seed: int) -> None:
         ou.restorePreviousOutputHandler()
 
 
-# ====================================================================== motion primitives
-def steer_action(pose, target, grip: float) -> np.ndarray:
-    """The action that moves the gripper straight towards ``target`` (x, y, theta) at full speed:
-    the world-frame displacement is converted to the gripper frame and all three motion entries
-    are scaled by the same factor so that the largest is at most 1 (a straight line).
-
-    Examples:
-        >>> from occrl.baselines.kinodynamic import CLOSE, OPEN, steer_action
-        >>> steer_action((0.0, 0.0, 0.0), (0.1, 0.0, 0.0), OPEN).tolist()  # 10 cm right: a full lateral step
-        [0.0, 1.0, 0.0, -1.0]
-        >>> steer_action((0.0, 0.0, 0.0), (0.0, 0.02, 0.0), CLOSE).round(3).tolist()  # 2 cm of a 5 cm step
-        [0.4, 0.0, 0.0, 1.0]
-    """
-    x, y, th = (float(v) for v in pose)
-    dx, dy = float(target[0]) - x, float(target[1]) - y
-    c, s = math.cos(th), math.sin(th)
-    fwd, lat = -s * dx + c * dy, c * dx + s * dy
-    a = np.array([fwd / C.MAX_FORWARD, lat / C.MAX_LATERAL, (float(target[2]) - th) / C.MAX_ROTATION])
-    a /= max(1.0, float(np.abs(a).max()))
-    return np.array([a[0], a[1], a[2], grip])
-
-
-def _at(pose, target, tol_xy: float = 1e-3, tol_th: float = math.radians(0.5)) -> bool:
-    return math.hypot(pose[0] - target[0], pose[1] - target[1]) < tol_xy and abs(pose[2] - target[2]) < tol_th
-
-
-def _inside(pose) -> bool:
-    """Some part of the (open) gripper may be in the shelf."""
-    return pose[1] > _OUT_Y or abs(pose[2]) > math.pi / 4
-
-
-# ====================================================================== goals
-def _compose(a, b) -> np.ndarray:
-    """Pose ``b`` (given in the frame of pose ``a``) in the frame ``a`` is given in."""
-    c, s = math.cos(a[2]), math.sin(a[2])
-    return np.array([a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1], a[2] + b[2]])
-
-
-class _GoalSpec:
-    """A goal region on the simulator state (a table entry), with what the planner needs besides:
-    two *features* of a state that join the gripper pose in the OMPL state (so that nearest
-    neighbours tell apart states whose gripper poses agree but whose objects do not), their
-    bounds, a heuristic distance outside the region, and goal samples (gripper pose, features)."""
-
-    name = "goal"
-    feature_bounds = ((-0.4, 0.4), (-0.3, 0.6))
-
-    def satisfied(self, e: "_Entry") -> bool:  # pragma: no cover - interface
-        raise NotImplementedError
-
-    def distance(self, e: "_Entry") -> float:  # pragma: no cover - interface
-        raise NotImplementedError
-
-    def features(self, e: "_Entry") -> tuple[float, float]:  # pragma: no cover - interface
-        raise NotImplementedError
-
-    def sample(self, rng: np.random.Generator) -> tuple[np.ndarray, tuple[float, float]]:  # pragma: no cover - interface
-        raise NotImplementedError
-
-
-class ReachGoal(_GoalSpec):
-    """Object ``index`` alone between the open fingers, ``margin`` inside the grasp rule: lying
-    across the axis with ``margin`` to either finger, its centre ``margin`` within the fingers.
-
-    ``grasp_poses`` (world frame, best first, for the object at ``object_pose``) are heuristic
-    gripper poses in the region; they are kept relative to the object, so they follow it when it
-    is pushed. Features: the object's centre in the gripper frame. Goal samples are drawn from the
-    grasp poses (the best most often); the distance outside the region is to the nearest one.
-
-    Examples:
-        >>> from occrl.baselines.kinodynamic import OPEN, ReachGoal, SimControlProblem, grasp_poses
-        >>> from occrl.envs import Scene, ShelfWorld
-        >>> box = [[-0.02, -0.02], [0.02, -0.02], [0.02, 0.02], [-0.02, 0.02]]
-        >>> world = ShelfWorld(Scene.from_objects([{"vertices": box, "pose": (0.0, 0.15, 0.0), "is_target": True}],
-        ...                                       gripper_pose=(0.0, -0.1, 0.0)))
-        >>> goal = ReachGoal(0, world.nominal_vertices, grasp_poses(world, 0), world.object_poses()[0])
-        >>> problem = SimControlProblem(world, goal, grip=OPEN)
-        >>> start = problem.table[0]  # the start state's simulator entry
-        >>> goal.name, goal.satisfied(start), round(float(goal.distance(start)), 3)  # 22.5 cm from the best grasp
-        ('reach', False, 0.226)
-        >>> problem.close()  # frees the OMPL objects, which reference the problem from C++
-    """
-
-    name = "reach"
-    feature_bounds = ((-1.0, 1.0), (-1.0, 1.0))
-
-    def __init__(self, index: int, vertices: list[np.ndarray], grasp_poses, object_pose, margin: float = 0.003) -> None:
-        self.index = int(index)
-        self.vertices = vertices
-        self.margin = margin
-        grasps = np.atleast_2d(np.asarray(grasp_poses, float))
-        inv = inverse_pose(object_pose)
-        self.relative = np.array([_compose(inv, g) for g in grasps])  # grasp poses in the object frame
-        self.grasp_poses = grasps
-        w = 1.0 / (1.0 + np.arange(len(grasps)))
-        self._p = w / w.sum()
-
-    def satisfied(self, e: "_Entry") -> bool:
-        if e.closed or e.opening < C.GRIPPER_STROKE - 1e-6 or abs(e.gripper_pose[2]) > _MAX_GRASP_ANGLE:
-            return False
-        return _between_fingers(e.gripper_pose, e.opening, self.vertices, e.object_poses, self.index, self.margin)
-
-    def distance(self, e: "_Entry") -> float:
-        if self.satisfied(e):
-            return 0.0
-        obj = e.object_poses[self.index]
-        best = math.inf
-        for rel in self.relative:
-            g = _compose(obj, rel)
-            d = math.hypot(g[0] - e.gripper_pose[0], g[1] - e.gripper_pose[1]) + 0.1 * abs(g[2] - e.gripper_pose[2])
-            best = min(best, d)
-        return 1e-3 + best
-
-    def features(self, e: "_Entry") -> tuple[float, float]:
-        p = transform_points(e.object_poses[self.index][None, :2], inverse_pose(e.gripper_pose))[0]
-        return float(p[0]), float(p[1])
-
-    def sample(self, rng: np.random.Generator) -> tuple[np.ndarray, tuple[float, float]]:
-        k = rng.choice(len(self.relative), p=self._p)
-        pose = self.grasp_poses[k] + rng.normal(0.0, [0.003, 0.003, 0.02])
-        f = _compose(inverse_pose(self.relative[k]), np.zeros(3))  # the object in the grasp frame
-        return pose, (float(f[0]), float(f[1]))
-
-
-def grasp_poses(world: ShelfWorld, index: int, prefer_angle: float = 0.0, limit: int = 8, margin: float = 0.004) -> np.ndarray:
-    """Gripper poses (best first) where object ``index`` would be alone between the open fingers
-    (the grasp rule with ``margin``) with no part of the gripper touching the object itself or a
-    wall, in the world's current configuration. Candidates: approach angles
-    within 45 degrees, lateral offsets up to 3 cm, the palm 5 mm short of the object; ranked by
-    turn from ``prefer_angle`` and offset, poses whose palm or forearm would have to push another
-    object after the collision-free ones. Falls back to
-    :func:`~occrl.baselines.scripted.plan_grasp`'s pose when nothing fits.
-
-    Examples:
-        >>> from occrl.baselines.kinodynamic import grasp_poses
-        >>> from occrl.envs import Scene, ShelfWorld
-        >>> from occrl.envs import world_constants as C
-        >>> from occrl.envs.world import grasp_candidate
-        >>> box = [[-0.02, -0.02], [0.02, -0.02], [0.02, 0.02], [-0.02, 0.02]]
-        >>> world = ShelfWorld(Scene.from_objects([{"vertices": box, "pose": (0.0, 0.15, 0.0), "is_target": True}]))
-        >>> poses = grasp_poses(world, 0)
-        >>> poses.shape, poses[0].round(3).tolist()  # best first: straight on, palm 5 mm short of the box
-        ((8, 3), [0.0, 0.125, 0.0])
-        >>> grasp_candidate(poses[0], C.GRIPPER_STROKE, world.object_world_polygons())[0]  # closing there holds it
-        0
-    """
-    from occrl.baselines.scripted import plan_grasp
-
-    poses = world.object_poses()
-    polys = world.object_world_polygons()
-    target = polys[index]
-    centre = target.mean(axis=0)
-    parts = gripper_polygons(C.GRIPPER_STROKE)
-    found = []  # (class, score, order, pose); class 0: collision-free, 1: the palm or forearm pushes something
-    angles = np.radians(np.arange(-45.0, 45.1, 5.0))
-    for a in angles[np.argsort(np.abs(angles - prefer_angle), kind="stable")]:
-        a = float(a)
-        local = transform_points(target - centre, (0.0, 0.0, -a))  # object in an approach frame at its centre
-        xmid = 0.5 * (local[:, 0].min() + local[:, 0].max())
-        c, s = math.cos(a), math.sin(a)
-        for off in (0.0, -0.006, 0.006, -0.012, 0.012, -0.02, 0.02, -0.03, 0.03):
-            lx, ly = xmid + off, local[:, 1].min() - 0.005  # gripper origin in the approach frame
-            pose = np.array([centre[0] + c * lx - s * ly, centre[1] + s * lx + c * ly, a])
-            if not _between_fingers(pose, C.GRIPPER_STROKE, world.nominal_vertices, poses, index, margin):
-                continue
-            g = [transform_points(p, pose) for p in parts]
-            if any(polygons_overlap(q, w, clearance=0.002) for q in g for w in _WALLS):
-                continue
-            if any(polygons_overlap(q, target, clearance=0.001) for q in g):
-                continue
-            pushes = any(polygons_overlap(q, o, clearance=0.002) for q in g for j, o in enumerate(polys) if j != index)
-            score = abs(a - prefer_angle) / math.radians(5.0) + abs(off) / 0.006
-            found.append((int(pushes), score, len(found), pose))
-    if not found:
-        angle, grasp = plan_grasp(target, [p for j, p in enumerate(polys) if j != index], prefer_angle=prefer_angle)
-        return np.array([[grasp[0], grasp[1], angle]])
-    found.sort(key=lambda f: f[:3])
-    return np.array([f[3] for f in found[:limit]])
-
-
-class HoldGoal(_GoalSpec):
-    """Object ``index`` held, with its centroid past ``max_y`` (retrieve) or within ``radius`` of
-    ``spot`` (rearrange). Features: the object's position. Goal samples: the start gripper pose
-    moved by what the object has to move.
-
-    Examples:
-        >>> from occrl.baselines.kinodynamic import HoldGoal
-        >>> goal = HoldGoal(0, start_pose=(0.0, 0.12, 0.0), start_object_pose=(0.0, 0.15, 0.0), max_y=-0.05)
-        >>> goal.name, goal.goal_pose.round(3).tolist()  # the gripper moved as far as the object must
-        ('extract', [0.0, -0.1, 0.0])
-        >>> HoldGoal(0, (0.0, 0.12, 0.0), (0.0, 0.15, 0.0), spot=(0.1, 0.2)).name
-        'place'
-        >>> HoldGoal(0, (0.0, 0.12, 0.0), (0.0, 0.15, 0.0))
-        Traceback (most recent call last):
-            ...
-        ValueError: give exactly one of max_y (retrieve) and spot (rearrange)
-    """
-
-    feature_bounds = ((-0.5, 0.5), (-0.5, 0.5))
-
-    def __init__(self, index: int, start_pose, start_object_pose, max_y: float | None = None, spot=None, radius: float = 0.03):
-        if (max_y is None) == (spot is None):
-            raise ValueError("give exactly one of max_y (retrieve) and spot (rearrange)")
-        self.index = int(index)
-        self.max_y = max_y
-        self.spot = None if spot is None else np.asarray(spot, float)
-        self.radius = radius
-        self.name = "extract" if spot is None else "place"
-        self.goal_xy = self.spot if spot is not None else np.array([start_object_pose[0], max_y - 0.02])
-        shift = self.goal_xy - np.asarray(start_object_pose[:2], float)
-        self.goal_pose = np.array([start_pose[0] + shift[0], start_pose[1] + shift[1], start_pose[2]])
-
-    def _error(self, e: "_Entry") -> float:
-        p = e.object_poses[self.index]
-        if self.spot is None:
-            return max(0.0, p[1] - self.max_y)
-        return max(0.0, math.hypot(p[0] - self.spot[0], p[1] - self.spot[1]) - self.radius)
-
-    def satisfied(self, e: "_Entry") -> bool:
-        return e.held == self.index and self._error(e) <= 0.0
-
-    def distance(self, e: "_Entry") -> float:
-        if e.held != self.index:
-            d = self.goal_pose - e.gripper_pose
-            return 1.0 + math.hypot(d[0], d[1])
-        err = self._error(e)
-        return 0.0 if err <= 0.0 else 1e-3 + err
-
-    def features(self, e: "_Entry") -> tuple[float, float]:
-        p = e.object_poses[self.index]
-        return float(p[0]), float(p[1])
-
-    def sample(self, rng: np.random.Generator) -> tuple[np.ndarray, tuple[float, float]]:
-        jitter = rng.normal(0.0, [0.01, 0.01, 0.05])
-        return self.goal_pose + jitter, (float(self.goal_xy[0] + jitter[0]), float(self.goal_xy[1] + jitter[1]))
-
-
-def _between_fingers(gripper_pose, opening, vertices, object_poses, index, margin, palm_gap: float = 0.002) -> bool:
-    """The grasp rule (:func:`~occrl.envs.world.grasp_candidate`) for one object, with margins,
-    and the object ``palm_gap`` clear of the palm (not being pushed)."""
-    h = opening / 2.0
-    inv = inverse_pose(gripper_pose)
-    band = np.array([[-h, 0.0], [h, 0.0], [h, C.FINGER_LENGTH], [-h, C.FINGER_LENGTH]])
-    local = transform_points(transform_points(vertices[index], object_poses[index]), inv)
-    xmin, xmax = local[:, 0].min(), local[:, 0].max()
-    cy = local[:, 1].mean()
-    if not (xmin > -h + margin and xmax < h - margin and xmin < -margin and xmax > margin):
-        return False
-    if not (margin <= cy <= C.FINGER_LENGTH - margin) or local[:, 1].min() < palm_gap:
-        return False
-    for j, (v, p) in enumerate(zip(vertices, object_poses)):
-        if j == index:
-            continue
-        if math.hypot(p[0] - gripper_pose[0], p[1] - gripper_pose[1]) > 0.2:
-            continue
-        other = transform_points(transform_points(v, p), inv)
-        if polygons_overlap(other, band, clearance=0.001):
-            return False
-    return True
-
-
-def _intrusions(gripper_pose, opening, vertices, object_poses, forbidden) -> np.ndarray:
-    """How many probe points of the gripper (entry 0) and of each object (centroid and vertices)
-    lie in the ``forbidden`` region."""
-    parts = [transform_points(_probe_points(opening), gripper_pose)]
-    parts += [transform_points(np.vstack([v, v.mean(axis=0)]), p) for v, p in zip(vertices, object_poses)]
-    inside = forbidden(np.concatenate(parts))
-    return np.add.reduceat(inside.astype(int), np.cumsum([0] + [len(q) for q in parts[:-1]]))
-
-
-def _allowed(gripper_pose, opening, vertices, object_poses, forbidden=None, baseline=None) -> bool:
-    """No part of the gripper or object penetrates a wall by more than ``WALL_TOLERANCE`` and,
-    with a ``forbidden`` region, none of them is further in it than in the ``baseline`` counts
-    of :func:`_intrusions` (the start state: touching it there is not the plan's doing)."""
-    if forbidden is not None:
-        counts = _intrusions(gripper_pose, opening, vertices, object_poses, forbidden)
-        if np.any(counts > (0 if baseline is None else baseline)):
-            return False
-    polys = [transform_points(p, gripper_pose) for p in gripper_polygons(opening)]
-    polys += [transform_points(v, p) for v, p in zip(vertices, object_poses)]
-    tol = WALL_TOLERANCE
-    for poly in polys:
-        x0, y0 = poly.min(axis=0)
-        x1, y1 = poly.max(axis=0)
-        for (wx0, wx1, wy0, wy1), wall in zip(_WALL_BOXES, _WALLS):
-            if x1 < wx0 + tol or x0 > wx1 - tol or y1 < wy0 + tol or y0 > wy1 - tol:
-                continue  # bounding boxes overlap less than the tolerance
-            if polygons_overlap(poly, wall, clearance=-tol):
-                return False
-    return True
-
-
-# ====================================================================== the OMPL problem
-@dataclass
-class _Entry:
-    """One simulated world state: the snapshot and what the planner needs of it."""
-
-    snap: dict
-    gripper_pose: np.ndarray
-    object_poses: np.ndarray
-    opening: float
-    closed: bool
-    held: int | None
-    valid: bool
-
-
 @dataclass
 class PlanResult:
     """What one low-level query produced.
 
     Examples:
-        >>> from occrl.baselines.kinodynamic import OPEN, ReachGoal, SimControlProblem, grasp_poses
+        >>> from occrl.baselines.goals import ReachGoal, grasp_poses
+        >>> from occrl.baselines.kinodynamic import SimControlProblem
+        >>> from occrl.baselines.motion import OPEN
         >>> from occrl.envs import Scene, ShelfWorld
         >>> box = [[-0.02, -0.02], [0.02, -0.02], [0.02, 0.02], [-0.02, 0.02]]
         >>> world = ShelfWorld(Scene.from_objects([{"vertices": box, "pose": (0.0, 0.15, 0.0), "is_target": True}],
@@ -440,7 +119,7 @@ class PlanResult:
     seconds: float
     propagations: int
     raw_length: int = 0  # actions of the OMPL path before shortcutting
-    final: _Entry | None = field(default=None, repr=False)
+    final: SimEntry | None = field(default=None, repr=False)
     gripper_poses: list[np.ndarray] = field(default_factory=list, repr=False)  # after each action, as replayed
 
 
@@ -460,7 +139,9 @@ class SimControlProblem:
         seed: seeds OMPL (re-seeded at each :meth:`solve`) and the goal samples' jitter.
 
     Examples:
-        >>> from occrl.baselines.kinodynamic import OPEN, ReachGoal, SimControlProblem, grasp_poses
+        >>> from occrl.baselines.goals import ReachGoal, grasp_poses
+        >>> from occrl.baselines.kinodynamic import SimControlProblem
+        >>> from occrl.baselines.motion import OPEN
         >>> from occrl.envs import Scene, ShelfWorld
         >>> box = [[-0.02, -0.02], [0.02, -0.02], [0.02, 0.02], [-0.02, 0.02]]
         >>> world = ShelfWorld(Scene.from_objects([{"vertices": box, "pose": (0.0, 0.15, 0.0), "is_target": True}],
@@ -480,7 +161,7 @@ class SimControlProblem:
     def __init__(
         self,
         world: ShelfWorld,
-        goal: _GoalSpec,
+        goal: GoalSpec,
         grip: float,
         planner: str = "rrt",
         goal_bias: float = 0.25,
@@ -507,8 +188,8 @@ class SimControlProblem:
         self.vertices = world.nominal_vertices
         self._baseline = None
         if self.forbidden is not None:
-            self._baseline = _intrusions(world.gripper_pose(), world.opening, self.vertices, world.object_poses(), self.forbidden)
-        self.table: list[_Entry] = [self._entry(valid=None)]
+            self._baseline = count_intrusions(world.gripper_pose(), world.opening, self.vertices, world.object_poses(), self.forbidden)
+        self.table: list[SimEntry] = [self._entry(valid=None)]
         self.propagations = 0
 
         se2 = ob.SE2StateSpace()
@@ -551,14 +232,14 @@ class SimControlProblem:
         self._keep = (se2, feats, index, bounds, fb, cb)  # keep the Python handles alive with the problem
 
     # ------------------------------------------------------------------ simulator side
-    def _entry(self, valid: bool | None) -> _Entry:
+    def _entry(self, valid: bool | None) -> SimEntry:
         w = self.world
-        e = _Entry(w.snapshot(), w.gripper_pose(), w.object_poses(), w.opening, w.closed, w.held, True)
+        e = SimEntry(w.snapshot(), w.gripper_pose(), w.object_poses(), w.opening, w.closed, w.held, True)
         e.valid = self._penetration_free(e) if valid is None else valid
         return e
 
-    def _penetration_free(self, e: _Entry) -> bool:
-        return _allowed(e.gripper_pose, e.opening, self.vertices, e.object_poses, self.forbidden, self._baseline)
+    def _penetration_free(self, e: SimEntry) -> bool:
+        return motion_allowed(e.gripper_pose, e.opening, self.vertices, e.object_poses, self.forbidden, self._baseline)
 
     def simulate(self, parent: int, action) -> int:
         """Restore table entry ``parent``, apply one action, append the child; its index."""
@@ -732,7 +413,7 @@ class SimControlProblem:
         state is invalid or the goal is not reached."""
         k, actions = start, []
         for target in waypoints:
-            while not _at(self.table[k].gripper_pose, target):
+            while not is_at(self.table[k].gripper_pose, target):
                 if len(actions) >= max_steps:
                     return None
                 a = steer_action(self.table[k].gripper_pose, target, self.grip)
@@ -755,7 +436,7 @@ class SimControlProblem:
         if isinstance(self.goal, ReachGoal):
             for k in (start, final):
                 obj = self.table[k].object_poses[self.goal.index]
-                targets += [_compose(obj, rel) for rel in self.goal.relative[:2]]
+                targets += [compose_pose(obj, rel) for rel in self.goal.relative[:2]]
         routes = []
         for g in targets:
             routes.append([g])

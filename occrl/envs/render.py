@@ -21,7 +21,7 @@ from PIL import Image, ImageDraw
 
 from occrl.envs import world_constants as C
 from occrl.envs.geometry import transform_points
-from occrl.envs.visibility import _pad, angular_extents
+from occrl.envs.visibility import pad_polygons, angular_extents
 from occrl.envs.world import gripper_polygons, wall_polygons
 
 __all__ = [
@@ -147,7 +147,7 @@ def render_labels(
 
     # shadows of detected objects and walls: from the two silhouette vertices away from the camera
     n = len(object_polygons)
-    padded = np.concatenate([_pad(object_polygons, C.MAX_VERTICES), walls_padded]) if n else walls_padded
+    padded = np.concatenate([pad_polygons(object_polygons, C.MAX_VERTICES), walls_padded]) if n else walls_padded
     _, _, inside, i_lo, i_hi = angular_extents(padded, np.array([cx, cy, th]), with_tangents=True)
     ar = np.arange(len(padded))
     v_lo, v_hi = padded[ar, i_lo], padded[ar, i_hi]
@@ -196,7 +196,7 @@ def _static_pixels(canvas: Canvas) -> tuple[np.ndarray, list, np.ndarray]:
     if canvas not in _STATIC_CACHE:
         walls = canvas.to_pixels(np.stack(_WALLS))
         edge = canvas.to_pixels(np.array([[-C.SHELF_HALF_WIDTH, 0.0], [C.SHELF_HALF_WIDTH, 0.0]]))
-        _STATIC_CACHE[canvas] = (walls, edge.ravel().tolist(), _pad(_WALLS, C.MAX_VERTICES))
+        _STATIC_CACHE[canvas] = (walls, edge.ravel().tolist(), pad_polygons(_WALLS, C.MAX_VERTICES))
     return _STATIC_CACHE[canvas]
 
 
@@ -218,7 +218,7 @@ def render_true_scene(
         ((288, 256), True, False)
     """
     img = Image.new("L", (canvas.shape[1], canvas.shape[0]), LABELS["observable"])
-    padded = _pad(object_polygons, C.MAX_VERTICES) if len(object_polygons) else np.zeros((0, C.MAX_VERTICES, 2))
+    padded = pad_polygons(object_polygons, C.MAX_VERTICES) if len(object_polygons) else np.zeros((0, C.MAX_VERTICES, 2))
     _draw_shelf_and_bodies(ImageDraw.Draw(img), canvas, gripper_pose, opening, padded, [len(p) for p in object_polygons], is_target)
     return np.asarray(img, dtype=np.uint8)
 

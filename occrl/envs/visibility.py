@@ -20,7 +20,7 @@ import numpy as np
 
 from occrl.envs import world_constants as C
 
-__all__ = ["visible_fractions", "detect", "camera_pose", "angular_extents"]
+__all__ = ["visible_fractions", "detect", "camera_pose", "angular_extents", "pad_polygons"]
 
 
 def camera_pose(gripper_pose: np.ndarray) -> np.ndarray:
@@ -34,7 +34,7 @@ def camera_pose(gripper_pose: np.ndarray) -> np.ndarray:
     return np.asarray(gripper_pose, dtype=float)
 
 
-def _pad(polygons: Sequence[np.ndarray], size: int | None = None) -> np.ndarray:
+def pad_polygons(polygons: Sequence[np.ndarray], size: int | None = None) -> np.ndarray:
     """(P, V, 2) with each polygon padded by repeating its first vertex (zero-length edges)."""
     vmax = size if size is not None else max(len(p) for p in polygons)
     out = np.empty((len(polygons), vmax, 2))
@@ -132,7 +132,7 @@ def visible_fractions(
     if isinstance(object_polygons, np.ndarray) and isinstance(occluder_polygons, np.ndarray):
         polys = np.concatenate([object_polygons, occluder_polygons])  # already padded alike
     else:
-        polys = _pad(list(object_polygons) + list(occluder_polygons))
+        polys = pad_polygons(list(object_polygons) + list(occluder_polygons))
     cam = camera_pose(gripper_pose)
     lo, hi, inside = angular_extents(polys, cam)
     half = fov / 2

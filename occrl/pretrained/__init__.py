@@ -15,10 +15,14 @@ from pathlib import Path
 
 from occrl.training.checkpoint import load_weights
 
-__all__ = ["load_pretrained", "available", "model_card", "pretrained_path", "weights_file"]
+__all__ = ["load_pretrained", "available", "model_card", "pretrained_path", "weights_file", "PRETRAINED_DIR", "PRETRAINED_FILES"]
 
-_DIR = Path(__file__).resolve().parent
-_FILES = {"occnet": "occnet.pt", "occnet-noheatmap": "occnet-noheatmap.pt", "occnet-ei": "occnet-ei.pt"}
+PRETRAINED_DIR = Path(__file__).resolve().parent  # where the shipped weights and model_cards.json live
+PRETRAINED_FILES = {  # shipped name -> weights file in PRETRAINED_DIR
+    "occnet": "occnet.pt",
+    "occnet-noheatmap": "occnet-noheatmap.pt",
+    "occnet-ei": "occnet-ei.pt",
+}
 
 
 def available() -> list[str]:
@@ -29,7 +33,7 @@ def available() -> list[str]:
         >>> "occnet" in available()
         True
     """
-    return sorted(name for name, f in _FILES.items() if (_DIR / f).is_file())
+    return sorted(name for name, f in PRETRAINED_FILES.items() if (PRETRAINED_DIR / f).is_file())
 
 
 def model_card(name: str) -> dict:
@@ -43,7 +47,7 @@ def model_card(name: str) -> dict:
         >>> model_card("no-such-net")  # unknown names have no card
         {}
     """
-    path = _DIR / "model_cards.json"
+    path = PRETRAINED_DIR / "model_cards.json"
     cards = json.loads(path.read_text()) if path.is_file() else {}
     return cards.get(name, {})
 
@@ -78,9 +82,9 @@ def pretrained_path(name: str) -> Path:
             ...
         ValueError: unknown pretrained network 'occnet-v9'; known: ['occnet', 'occnet-ei', 'occnet-noheatmap']
     """
-    if name not in _FILES:
-        raise ValueError(f"unknown pretrained network {name!r}; known: {sorted(_FILES)}")
-    path = _DIR / _FILES[name]
+    if name not in PRETRAINED_FILES:
+        raise ValueError(f"unknown pretrained network {name!r}; known: {sorted(PRETRAINED_FILES)}")
+    path = PRETRAINED_DIR / PRETRAINED_FILES[name]
     if not path.is_file():
         raise FileNotFoundError(f"{path} is missing: this installation has no weights for {name!r} (shipped: {available()})")
     return path

@@ -9,7 +9,9 @@ import torch
 
 from occrl.baselines.hiding import HidingRegion
 from occrl.baselines.hierarchical import HierarchicalPlanner
-from occrl.baselines.kinodynamic import OPEN, ReachGoal, SimControlProblem, grasp_poses
+from occrl.baselines.goals import ReachGoal, grasp_poses
+from occrl.baselines.kinodynamic import SimControlProblem
+from occrl.baselines.motion import OPEN
 from occrl.envs import ShelfWorld, make_env
 from occrl.envs import world_constants as C
 from tests.helpers import scene, square
@@ -157,7 +159,7 @@ def test_move_out_backs_straight_out_when_every_candidate_motion_is_rejected(mon
     env = make_env(batch_size=1, scenes=[scene([(0.1, 0.3, 0.0, True)], gripper=(0.0, 0.15, 0.0))], heatmap_target=False)
     obs = env.reset()[0].exclude("privileged")
     planner = HierarchicalPlanner(seed=0)
-    monkeypatch.setattr(hier, "_allowed", lambda *args, **kwargs: False)  # every simulated candidate "collides"
+    monkeypatch.setattr(hier, "motion_allowed", lambda *args, **kwargs: False)  # every simulated candidate "collides"
     actions, poses = planner._move_out(hier._Episode(), obs, obs["gripper_pose"].numpy().astype(float))
     assert len(actions) > 1 and len(poses) == len(actions)
     assert poses[-1][1] < poses[0][1]  # the simulated poses move out of the shelf
