@@ -22,7 +22,8 @@ import torch
 from occrl.baselines.hierarchical import HierarchicalPlanner
 from occrl.envs import make_env
 from occrl.envs import world_constants as C
-from occrl.eval.runner import TIME_LIMIT_S, EpisodeResult, summarize, task_scenes
+from occrl.envs.episodes import TIME_LIMIT_S, EpisodeResult, task_scenes
+from occrl.eval.runner import summarize
 
 
 def main() -> None:

@@ -32,7 +32,7 @@ from occrl.planners import HybridPlanner
 
 def load_net(weights: str | None):
     from occrl.pretrained import available, load_pretrained
-    from occrl.training.checkpoint import load_weights
+    from occrl.modules.weights import load_weights
 
     if weights:
         return load_weights(weights), weights

@@ -58,7 +58,7 @@ def _demo(args: argparse.Namespace) -> int:
         policy, label = ScriptedRetriever(), "privileged scripted retriever (reads the true target pose)"
     else:
         from occrl.planners import HybridPlanner
-        from occrl.training.checkpoint import load_weights
+        from occrl.modules.weights import load_weights
         from occrl.pretrained import load_pretrained
 
         net = load_weights(_weights_file(args.weights)) if args.weights else load_pretrained("occnet")
@@ -339,7 +339,8 @@ def _export(args: argparse.Namespace) -> int:
     import torch
 
     from occrl.pretrained import PRETRAINED_DIR, PRETRAINED_FILES
-    from occrl.training.checkpoint import load_checkpoint, load_weights, save_weights
+    from occrl.modules.weights import load_weights, save_weights
+    from occrl.training.checkpoint import load_checkpoint
     from occrl.training.plots import read_metrics
 
     if args.name not in PRETRAINED_FILES:

@@ -3,7 +3,7 @@
 Usage:
     python scripts/record_fingerprints.py [--out tests/data/fingerprints.json]
 
-Only after a change that alters behaviour on purpose (see occrl/eval/fingerprints.py).
+Only after a change that alters behaviour on purpose (see occrl/fingerprints.py).
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-from occrl.eval.fingerprints import all_fingerprints
+from occrl.fingerprints import all_fingerprints
 
 
 def main() -> None:

@@ -1,5 +1,5 @@
 """Behaviour guard: seeded episodes and presets equal their recorded fingerprints
-(occrl/eval/fingerprints.py; re-record with scripts/record_fingerprints.py only for a change that
+(occrl/fingerprints.py; re-record with scripts/record_fingerprints.py only for a change that
 alters behaviour on purpose)."""
 
 import json
@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from occrl.eval.fingerprints import EPISODES, episode_fingerprint, preset_fingerprints
+from occrl.fingerprints import EPISODES, episode_fingerprint, preset_fingerprints
 
 RECORDED = json.loads((Path(__file__).parent / "data" / "fingerprints.json").read_text())
 

@@ -144,7 +144,7 @@ results = run_tasks("greedy", stage=1, seeds=list(range(EVAL_SEED_BASE, EVAL_SEE
 print(summarize(results))"""),
     new_code_cell("""from occrl.envs import make_env
 from occrl.eval.film import episode_frames
-from occrl.training.checkpoint import load_weights
+from occrl.modules.weights import load_weights
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
 net = load_weights(f"{run_dir}/weights.pt")

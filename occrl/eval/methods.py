@@ -37,7 +37,7 @@ class Method:
 
 def _net(name: str, weights: str | Path | None):
     from occrl.pretrained import load_pretrained
-    from occrl.training.checkpoint import load_weights
+    from occrl.modules.weights import load_weights
 
     return load_weights(weights) if weights else load_pretrained(name)
 

@@ -9,94 +9,23 @@ from __future__ import annotations
 
 import logging
 import math
-import time
-from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Callable, Sequence
+from typing import Sequence
 
 import numpy as np
 import torch
 from tensordict import TensorDictBase
-from torchrl.envs.utils import ExplorationType, set_exploration_type
+from torchrl.envs.utils import set_exploration_type
 
-from occrl.envs import Scene, make_env
 from occrl.envs import world_constants as C
+from occrl.envs.episodes import EpisodeResult, run_episodes, seeded_task_env, task_scenes
 
-__all__ = [
-    "EpisodeResult",
-    "rollout_tasks",
-    "run_episodes",
-    "run_tasks",
-    "summarize",
-    "task_scenes",
-    "task_object_count",
-    "wilson_interval",
-    "EVAL_SEED_BASE",
-]
+# EpisodeResult, run_episodes, task_scenes, seeded_task_env live in occrl.envs.episodes (importable here too)
+__all__ = ["rollout_tasks", "run_tasks", "summarize", "wilson_interval", "EVAL_SEED_BASE"]
 
 logger = logging.getLogger(__name__)
 
 EVAL_SEED_BASE = 10_000_000
-TIME_LIMIT_S = 120.0
-
-
-@dataclass
-class EpisodeResult:
-    """The outcome of one task: its seed and object count, success, a drop, actions and seconds,
-    and the physics' health over the episode: the deepest penetration (m) after any action and
-    whether a physically invalid state was reached (NaN / False where the world does not measure,
-    and in results written before occrl measured it).
-
-    Examples:
-        >>> from occrl.eval.runner import EpisodeResult
-        >>> EpisodeResult(seed=3, objects=4, success=True, dropped=False, actions=21, seconds=0.4).to_dict()["actions"]
-        21
-    """
-
-    seed: int
-    objects: int
-    success: bool
-    dropped: bool
-    actions: int
-    seconds: float
-    max_penetration: float = math.nan
-    physics_invalid: bool = False
-
-    def to_dict(self) -> dict:
-        return asdict(self)
-
-
-def task_object_count(seed: int, low: int, high: int) -> int:
-    """The object count of task ``seed`` when tasks draw it uniformly from ``low..high``.
-
-    Examples:
-        >>> from occrl.eval.runner import task_object_count
-        >>> [task_object_count(s, 1, 10) for s in range(5)] == [task_object_count(s, 1, 10) for s in range(5)]
-        True
-        >>> all(1 <= task_object_count(s, 1, 10) <= 10 for s in range(100))
-        True
-    """
-    return int(np.random.default_rng([int(seed), 7]).integers(low, high + 1))
-
-
-def task_scenes(stage: int, seeds: Sequence[int], num_objects: int | tuple[int, int] | None = None) -> list[Scene]:
-    """The scenes of task seeds: the stage's object counts, a fixed count, or (low, high) for a
-    count drawn per task from its seed (the papers' "random number of objects, up to 10").
-
-    Examples:
-        >>> from occrl.eval.runner import task_scenes
-        >>> [len(s) for s in task_scenes(2, [0, 1, 2], num_objects=3)]
-        [3, 3, 3]
-        >>> a, b = task_scenes(1, [7])[0], task_scenes(1, [7])[0]  # a task seed names one shelf
-        >>> all((x.pose == y.pose) for x, y in zip(a.objects, b.objects))
-        True
-    """
-    if isinstance(num_objects, (tuple, list)):
-        low, high = (int(v) for v in num_objects)
-        if not 1 <= low <= high:
-            raise ValueError(f"an object-count range needs 1 <= low <= high, got {num_objects}")
-        return [Scene.sample(stage, seed=int(s), num_objects=task_object_count(s, low, high)) for s in seeds]
-    return [Scene.sample(stage, seed=int(s), num_objects=num_objects) for s in seeds]
 
 
 def wilson_interval(successes: int, n: int, z: float = 1.96) -> tuple[float, float]:
@@ -116,43 +45,6 @@ def wilson_interval(successes: int, n: int, z: float = 1.96) -> tuple[float, flo
     return (max(0.0, centre - half), min(1.0, centre + half))
 
 
-def seeded_task_env(
-    policy: Callable,
-    scenes: Sequence[Scene],
-    seeds: Sequence[int],
-    noise: float = 0.0,
-    primers: Sequence = (),
-    heatmap_target: bool = False,
-    world: str = "pymunk",
-):
-    """The env of a batch of tasks, with the env and the decision maker seeded by the task seeds:
-    what :func:`run_episodes` runs, and what a replay of one of its episodes must build.
-
-    Each world's execution noise follows its own task seed; the decision maker's randomness too
-    where it can (``reseed_worlds``, e.g. :class:`~occrl.baselines.NetPolicy`), else the batch's
-    first seed (``reseed``, e.g. the planners, run one task per batch). Either way results do not
-    depend on how tasks are spread over processes.
-
-    Examples:
-        >>> from occrl.baselines import ScriptedRetriever
-        >>> from occrl.eval.runner import seeded_task_env, task_scenes
-        >>> env = seeded_task_env(ScriptedRetriever(), task_scenes(1, [3, 4]), [3, 4])
-        >>> env.batch_size
-        torch.Size([2])
-    """
-    env = make_env(
-        batch_size=len(scenes), scenes=list(scenes), noise=noise, seed=[int(s) for s in seeds], heatmap_target=heatmap_target, world=world
-    )
-    for p in primers:
-        env.append_transform(p.clone() if hasattr(p, "clone") else p)
-    torch.manual_seed(int(seeds[0]))
-    if hasattr(policy, "reseed_worlds"):
-        policy.reseed_worlds([int(s) for s in seeds])
-    elif hasattr(policy, "reseed"):
-        policy.reseed(int(seeds[0]))
-    return env
-
-
 def rollout_tasks(method, stage: int, seeds: Sequence[int], noise: float = 0.0, steps: int = C.MAX_EPISODE_STEPS) -> TensorDictBase:
     """One batch of ``method`` (a :class:`~occrl.eval.methods.Method`) on the stage's tasks of
     ``seeds``, with the full [len(seeds), steps] rollout (privileged keys included) for analysis;
@@ -170,73 +62,12 @@ def rollout_tasks(method, stage: int, seeds: Sequence[int], noise: float = 0.0, 
         return env.rollout(steps, method.policy, break_when_any_done=False)
 
 
-def episode_end(done: np.ndarray) -> int:
-    """Index of the step that ended the episode in one world's ``done`` flags (the last step
-    when it did not end).
-
-    Examples:
-        >>> import numpy as np
-        >>> from occrl.eval.runner import episode_end
-        >>> episode_end(np.array([False, False, True, False])), episode_end(np.zeros(5, dtype=bool))
-        (2, 4)
-    """
-    ends = np.flatnonzero(done)
-    return int(ends[0]) if len(ends) else len(done) - 1
-
-
-def run_episodes(
-    policy: Callable,
-    scenes: Sequence[Scene],
-    seeds: Sequence[int],
-    noise: float = 0.0,
-    batch_size: int = 16,
-    primers: Sequence = (),
-    exploration: ExplorationType = ExplorationType.RANDOM,
-    heatmap_target: bool = False,
-    world: str = "pymunk",
-) -> list[EpisodeResult]:
-    """Run ``policy`` once on each scene (batches of ``batch_size`` worlds stepped together).
-
-    Success requires retrieval in under 50 actions and under 2 minutes, with nothing dropped.
-    Per-task time is the batch's wall time divided among its tasks.
-
-    Examples:
-        >>> from occrl.baselines import ScriptedRetriever
-        >>> from occrl.envs import Scene
-        >>> from occrl.eval.runner import run_episodes
-        >>> [r] = run_episodes(ScriptedRetriever(), [Scene.sample(1, seed=0, num_objects=1)], seeds=[0])
-        >>> r.success, r.dropped, r.actions < 50
-        (True, False, True)
-    """
-    results: list[EpisodeResult] = []
-    for start in range(0, len(scenes), batch_size):
-        chunk = list(scenes[start : start + batch_size])
-        chunk_seeds = list(seeds[start : start + batch_size])
-        env = seeded_task_env(policy, chunk, chunk_seeds, noise, primers, heatmap_target, world)
-        t = time.time()
-        with torch.no_grad(), set_exploration_type(exploration):
-            td = env.rollout(C.MAX_EPISODE_STEPS, policy, break_when_any_done=False)
-        per_task = (time.time() - t) / len(chunk)
-        done = td.get(("next", "done")).squeeze(-1).numpy()
-        success = td.get(("next", "success")).squeeze(-1).numpy()
-        dropped = td.get(("next", "dropped")).squeeze(-1).numpy()
-        penetration = td.get(("next", "privileged", "penetration")).squeeze(-1).numpy()
-        invalid = td.get(("next", "privileged", "physics_invalid")).squeeze(-1).numpy()
-        for b, scene in enumerate(chunk):
-            end = episode_end(done[b])
-            ok = bool(success[b, end]) and end + 1 < C.MAX_EPISODE_STEPS + 1 and per_task < TIME_LIMIT_S
-            deepest = float(np.max(penetration[b, : end + 1]))
-            results.append(
-                EpisodeResult(int(chunk_seeds[b]), len(scene), ok, bool(dropped[b, end]), end + 1, per_task, deepest, bool(invalid[b, end]))
-            )
-    return results
-
-
 def summarize(results: Sequence[EpisodeResult]) -> dict:
     """Success rate with its 95 % Wilson interval, drops, mean actions and seconds per task.
 
     Examples:
-        >>> from occrl.eval.runner import EpisodeResult, summarize
+        >>> from occrl.envs.episodes import EpisodeResult
+        >>> from occrl.eval.runner import summarize
         >>> rs = [EpisodeResult(s, 3, s % 2 == 0, False, 20 + s, 1.0) for s in range(4)]
         >>> summary = summarize(rs)
         >>> summary["success_rate"], summary["mean_actions"]

@@ -24,7 +24,8 @@ from typing import Sequence
 import numpy as np
 
 from occrl.atomic_files import write_text_atomic
-from occrl.eval.runner import EVAL_SEED_BASE, EpisodeResult, run_tasks, summarize, task_object_count
+from occrl.envs.episodes import EpisodeResult, task_object_count
+from occrl.eval.runner import EVAL_SEED_BASE, run_tasks, summarize
 
 __all__ = ["SWEEPS", "run_sweep", "summarize_sweep", "sweep_tables", "plot_sweep", "sweep_films", "noise_sweep_objects"]
 
@@ -170,7 +171,8 @@ def summarize_sweep(out: str | Path) -> list[dict]:
     Examples:
         >>> import json, tempfile
         >>> from pathlib import Path
-        >>> from occrl.eval.runner import EpisodeResult, summarize
+        >>> from occrl.envs.episodes import EpisodeResult
+        >>> from occrl.eval.runner import summarize
         >>> from occrl.eval.sweep import summarize_sweep
         >>> out = Path(tempfile.mkdtemp())
         >>> (out / "points").mkdir()
@@ -239,7 +241,8 @@ def plot_sweep(out: str | Path) -> Path:
     Examples:
         >>> import json, tempfile
         >>> from pathlib import Path
-        >>> from occrl.eval.runner import EpisodeResult, summarize
+        >>> from occrl.envs.episodes import EpisodeResult
+        >>> from occrl.eval.runner import summarize
         >>> from occrl.eval.sweep import plot_sweep
         >>> out = Path(tempfile.mkdtemp())
         >>> (out / "points").mkdir()
@@ -297,7 +300,7 @@ def sweep_films(out: str | Path, method: str, solved: int = 3, failed: int = 1, 
     from occrl.envs import world_constants as C
     from occrl.eval.film import episode_frames, save_film_strip
     from occrl.eval.methods import make_method
-    from occrl.eval.runner import episode_end, seeded_task_env, task_scenes
+    from occrl.envs.episodes import episode_end, seeded_task_env, task_scenes
 
     out = Path(out)
     points = sorted((p for p in _points(out) if p["method"] == method and p["sweep"] == "clutter"), key=lambda p: -p["value"])

@@ -13,7 +13,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from occrl.training.checkpoint import load_weights
+from occrl.modules.weights import load_weights
 
 __all__ = ["load_pretrained", "available", "model_card", "pretrained_path", "weights_file", "PRETRAINED_DIR", "PRETRAINED_FILES"]
 

@@ -1,6 +1,7 @@
 """Training: configs (presets), curriculum, DAgger warm start, checkpoints, the trainer."""
 
-from occrl.training.checkpoint import CheckpointError, load_checkpoint, load_weights, save_checkpoint, save_weights
+from occrl.modules.weights import CheckpointError, load_weights, save_weights
+from occrl.training.checkpoint import load_checkpoint, save_checkpoint
 from occrl.training.config import TRAIN_PRESETS, TrainConfig, get_train_config
 from occrl.training.curriculum import Curriculum
 from occrl.training.trainer import Trainer, episode_stats

@@ -20,6 +20,7 @@ import math
 import time
 from functools import partial
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 import torch
@@ -30,16 +31,18 @@ from torchrl.modules import set_recurrent_mode
 
 from occrl.baselines.scripted import ScriptedRetriever
 from occrl.envs import make_env
+from occrl.envs.episodes import run_episodes, task_scenes
 from occrl.modules import make_occnet
 from occrl.objectives import PPOHeatmapLoss, compute_advantages, heatmap_loss, imitation_nll
 from occrl.planners import HybridPlanner
-from occrl.training.checkpoint import load_checkpoint, load_weights, save_checkpoint, save_weights
+from occrl.modules.weights import load_weights, save_weights
+from occrl.training.checkpoint import load_checkpoint, save_checkpoint
 from occrl.training.config import TrainConfig
 from occrl.training.curriculum import Curriculum
 from occrl.training.dagger import ExpertMixPolicy, OnlineTeacherPolicy, label_with_expert, label_with_planner
 from occrl.training.dagger_buffer import DaggerBuffer
 
-__all__ = ["Trainer", "episode_stats"]
+__all__ = ["Trainer", "episode_stats", "hybrid_validation_success", "training_device", "VALIDATION_SEED_BASE"]
 
 logger = logging.getLogger(__name__)
 
@@ -174,9 +177,23 @@ def episode_stats(data: TensorDictBase) -> dict:
     return {"success": succ, "returns": rets, "lengths": lens}
 
 
+def hybrid_validation_success(net, stage: int, tasks: int, noise: float = 0.0) -> float:
+    """The paper's promotion statistic: hybrid 4x4 success of ``net`` on ``tasks`` fixed validation
+    tasks of ``stage`` (task seeds from :data:`VALIDATION_SEED_BASE`, apart from training and
+    held-out seeds). The trainer's default ``promotion_check``."""
+    seeds = list(range(VALIDATION_SEED_BASE, VALIDATION_SEED_BASE + tasks))
+    planner = HybridPlanner(net, m=4, h=4, seed=0)
+    results = run_episodes(planner, task_scenes(stage, seeds), seeds, noise, batch_size=1, primers=[net.make_primer()])
+    return float(np.mean([r.success for r in results]))
+
+
 class Trainer:
     """Train an OccNet. ``Trainer(config, run_dir, seed).train(iterations)``; resumes from
     ``run_dir/checkpoint.pt`` when it exists.
+
+    ``promotion_check(net, stage, tasks, noise) -> success rate`` is the statistic of the "hybrid"
+    promotion rule (default :func:`hybrid_validation_success`, the paper's); pass another to
+    promote on something else (e.g. a different validation set).
 
     Examples:
         >>> import tempfile
@@ -197,6 +214,7 @@ class Trainer:
         ray_address: str | None = None,
         max_worker_restarts: int = 2,
         init_weights: str | Path | None = None,
+        promotion_check: Callable[..., float] = hybrid_validation_success,
     ) -> None:
         if config.promotion not in ("learner", "hybrid"):
             raise ValueError(f"promotion must be 'learner' or 'hybrid', got {config.promotion!r}")
@@ -230,6 +248,7 @@ class Trainer:
         if config.promotion == "hybrid" and not config.heatmap:
             raise ValueError("promotion='hybrid' needs the heat-map head (the hybrid planner uses it); use 'learner'")
         self.config = config
+        self.promotion_check = promotion_check
         self.ray_address = ray_address  # where the "ray" collector runs (None: a local Ray runtime)
         self.max_worker_restarts = max_worker_restarts
         # threads for the update; collector workers are idle meanwhile (sync collection), so the
@@ -597,19 +616,10 @@ class Trainer:
         return terms
 
     def _hybrid_success(self) -> float:
-        """The paper's promotion statistic: hybrid 4x4 success on fixed validation tasks of the
-        current stage (seeds from VALIDATION_SEED_BASE, apart from training and held-out seeds)."""
-        from occrl.eval.runner import run_episodes, task_scenes
-        from occrl.planners import HybridPlanner
-
+        """The promotion statistic of the current network and stage (``promotion_check``)."""
         c = self.config
-        seeds = list(range(VALIDATION_SEED_BASE, VALIDATION_SEED_BASE + c.promotion_eval_tasks))
-        planner = HybridPlanner(self.acting_net, m=4, h=4, seed=0)
-        results = run_episodes(
-            planner, task_scenes(self.curriculum.stage, seeds), seeds, c.noise, batch_size=1, primers=[self.acting_net.make_primer()]
-        )
+        rate = float(self.promotion_check(self.acting_net, self.curriculum.stage, c.promotion_eval_tasks, c.noise))
         self.acting_net.eval()
-        rate = float(np.mean([r.success for r in results]))
         logger.info("hybrid 4x4 validation success at iteration %d (stage %d): %.2f", self.iteration, self.curriculum.stage, rate)
         return rate
 

@@ -4,7 +4,8 @@ import pytest
 from occrl.baselines import ScriptedRetriever
 from occrl.baselines.scripted import plan_grasp
 from occrl.envs import ShelfEnv
-from occrl.eval.runner import run_episodes, summarize, task_scenes
+from occrl.envs.episodes import run_episodes, task_scenes
+from occrl.eval.runner import summarize
 from tests.helpers import scene
 
 

@@ -117,7 +117,7 @@ def test_env_arguments_are_range_checked_at_construction(kwargs, match):
         (dict(window=0.0), "window"),
         (dict(size=4), "size"),
         (dict(forward_offset=math.inf), "forward_offset"),
-        (dict(backend="box2d"), "backend"),
+        (dict(world="box2d"), "world"),
     ],
 )
 def test_make_env_arguments_are_range_checked(kwargs, match):

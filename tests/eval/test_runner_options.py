@@ -3,7 +3,8 @@
 import pytest
 
 from occrl.cli import main
-from occrl.eval.runner import EVAL_SEED_BASE, run_tasks, task_object_count, task_scenes
+from occrl.envs.episodes import task_object_count, task_scenes
+from occrl.eval.runner import EVAL_SEED_BASE, run_tasks
 from occrl.eval.sweep import noise_sweep_objects
 
 SEEDS = list(range(EVAL_SEED_BASE, EVAL_SEED_BASE + 40))

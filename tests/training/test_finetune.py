@@ -8,7 +8,7 @@ import torch
 
 from occrl.modules import make_occnet
 from occrl.training import CheckpointError, Trainer, get_train_config
-from occrl.training.checkpoint import save_weights
+from occrl.modules.weights import save_weights
 
 
 def _state(module):

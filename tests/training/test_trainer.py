@@ -5,7 +5,7 @@ import torch
 
 from occrl.training import CheckpointError, Curriculum, Trainer, get_train_config, load_checkpoint, load_weights
 from occrl.modules import make_occnet
-from occrl.training.checkpoint import save_weights
+from occrl.modules.weights import save_weights
 
 
 def _weights(net):

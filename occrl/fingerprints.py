@@ -38,13 +38,14 @@ def episode_fingerprint(method_name: str, stage: int, seed: int) -> dict:
     """One seeded episode of a method: the actions' digest and the outcome.
 
     Examples:
-        >>> from occrl.eval.fingerprints import episode_fingerprint
+        >>> from occrl.fingerprints import episode_fingerprint
         >>> fp = episode_fingerprint("scripted", 1, 10_000_000)
         >>> sorted(fp), fp["success"]
         (['actions', 'dropped', 'steps', 'success'], True)
     """
     from occrl.eval.methods import make_method
-    from occrl.eval.runner import episode_end, rollout_tasks
+    from occrl.envs.episodes import episode_end
+    from occrl.eval.runner import rollout_tasks
 
     method = make_method(method_name)
     td = rollout_tasks(method, stage, [seed])

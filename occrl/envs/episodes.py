@@ -1,0 +1,185 @@
+"""Seeded tasks and the episodes of a decision maker on them (what evaluation and the training's
+promotion checks run).
+
+Tasks are scenes built from *task seeds*: task seed ``s`` is ``Scene.sample(stage, seed=s)`` and
+its execution noise is seeded by ``s`` too, so every method sees the same shelves.
+:func:`run_episodes` runs any policy (a TensorDict module writing ``"action"``) on them and
+scores each episode (:class:`EpisodeResult`).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import asdict, dataclass
+from typing import Callable, Sequence
+
+import numpy as np
+import torch
+from torchrl.envs.utils import ExplorationType, set_exploration_type
+
+from occrl.envs import world_constants as C
+from occrl.envs.pipeline import make_env
+from occrl.envs.scene import Scene
+
+__all__ = ["EpisodeResult", "task_scenes", "task_object_count", "seeded_task_env", "episode_end", "run_episodes", "TIME_LIMIT_S"]
+
+TIME_LIMIT_S = 120.0  # a task's time limit (the papers' 2 minutes)
+
+
+@dataclass
+class EpisodeResult:
+    """The outcome of one task: its seed and object count, success, a drop, actions and seconds,
+    and the physics' health over the episode: the deepest penetration (m) after any action and
+    whether a physically invalid state was reached (NaN / False where the world does not measure,
+    and in results written before occrl measured it).
+
+    Examples:
+        >>> from occrl.envs.episodes import EpisodeResult
+        >>> EpisodeResult(seed=3, objects=4, success=True, dropped=False, actions=21, seconds=0.4).to_dict()["actions"]
+        21
+    """
+
+    seed: int
+    objects: int
+    success: bool
+    dropped: bool
+    actions: int
+    seconds: float
+    max_penetration: float = math.nan
+    physics_invalid: bool = False
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def task_object_count(seed: int, low: int, high: int) -> int:
+    """The object count of task ``seed`` when tasks draw it uniformly from ``low..high``.
+
+    Examples:
+        >>> from occrl.envs.episodes import task_object_count
+        >>> [task_object_count(s, 1, 10) for s in range(5)] == [task_object_count(s, 1, 10) for s in range(5)]
+        True
+        >>> all(1 <= task_object_count(s, 1, 10) <= 10 for s in range(100))
+        True
+    """
+    return int(np.random.default_rng([int(seed), 7]).integers(low, high + 1))
+
+
+def task_scenes(stage: int, seeds: Sequence[int], num_objects: int | tuple[int, int] | None = None) -> list[Scene]:
+    """The scenes of task seeds: the stage's object counts, a fixed count, or (low, high) for a
+    count drawn per task from its seed (the papers' "random number of objects, up to 10").
+
+    Examples:
+        >>> from occrl.envs.episodes import task_scenes
+        >>> [len(s) for s in task_scenes(2, [0, 1, 2], num_objects=3)]
+        [3, 3, 3]
+        >>> a, b = task_scenes(1, [7])[0], task_scenes(1, [7])[0]  # a task seed names one shelf
+        >>> all((x.pose == y.pose) for x, y in zip(a.objects, b.objects))
+        True
+    """
+    if isinstance(num_objects, (tuple, list)):
+        low, high = (int(v) for v in num_objects)
+        if not 1 <= low <= high:
+            raise ValueError(f"an object-count range needs 1 <= low <= high, got {num_objects}")
+        return [Scene.sample(stage, seed=int(s), num_objects=task_object_count(s, low, high)) for s in seeds]
+    return [Scene.sample(stage, seed=int(s), num_objects=num_objects) for s in seeds]
+
+
+def seeded_task_env(
+    policy: Callable,
+    scenes: Sequence[Scene],
+    seeds: Sequence[int],
+    noise: float = 0.0,
+    primers: Sequence = (),
+    heatmap_target: bool = False,
+    world: str = "pymunk",
+):
+    """The env of a batch of tasks, with the env and the decision maker seeded by the task seeds:
+    what :func:`run_episodes` runs, and what a replay of one of its episodes must build.
+
+    Each world's execution noise follows its own task seed; the decision maker's randomness too
+    where it can (``reseed_worlds``, e.g. :class:`~occrl.baselines.NetPolicy`), else the batch's
+    first seed (``reseed``, e.g. the planners, run one task per batch). Either way results do not
+    depend on how tasks are spread over processes.
+
+    Examples:
+        >>> from occrl.baselines import ScriptedRetriever
+        >>> from occrl.envs.episodes import seeded_task_env, task_scenes
+        >>> env = seeded_task_env(ScriptedRetriever(), task_scenes(1, [3, 4]), [3, 4])
+        >>> env.batch_size
+        torch.Size([2])
+    """
+    env = make_env(
+        batch_size=len(scenes), scenes=list(scenes), noise=noise, seed=[int(s) for s in seeds], heatmap_target=heatmap_target, world=world
+    )
+    for p in primers:
+        env.append_transform(p.clone() if hasattr(p, "clone") else p)
+    torch.manual_seed(int(seeds[0]))
+    if hasattr(policy, "reseed_worlds"):
+        policy.reseed_worlds([int(s) for s in seeds])
+    elif hasattr(policy, "reseed"):
+        policy.reseed(int(seeds[0]))
+    return env
+
+
+def episode_end(done: np.ndarray) -> int:
+    """Index of the step that ended the episode in one world's ``done`` flags (the last step
+    when it did not end).
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.episodes import episode_end
+        >>> episode_end(np.array([False, False, True, False])), episode_end(np.zeros(5, dtype=bool))
+        (2, 4)
+    """
+    ends = np.flatnonzero(done)
+    return int(ends[0]) if len(ends) else len(done) - 1
+
+
+def run_episodes(
+    policy: Callable,
+    scenes: Sequence[Scene],
+    seeds: Sequence[int],
+    noise: float = 0.0,
+    batch_size: int = 16,
+    primers: Sequence = (),
+    exploration: ExplorationType = ExplorationType.RANDOM,
+    heatmap_target: bool = False,
+    world: str = "pymunk",
+) -> list[EpisodeResult]:
+    """Run ``policy`` once on each scene (batches of ``batch_size`` worlds stepped together).
+
+    Success requires retrieval in under 50 actions and under 2 minutes, with nothing dropped.
+    Per-task time is the batch's wall time divided among its tasks.
+
+    Examples:
+        >>> from occrl.baselines import ScriptedRetriever
+        >>> from occrl.envs import Scene
+        >>> from occrl.envs.episodes import run_episodes
+        >>> [r] = run_episodes(ScriptedRetriever(), [Scene.sample(1, seed=0, num_objects=1)], seeds=[0])
+        >>> r.success, r.dropped, r.actions < 50
+        (True, False, True)
+    """
+    results: list[EpisodeResult] = []
+    for start in range(0, len(scenes), batch_size):
+        chunk = list(scenes[start : start + batch_size])
+        chunk_seeds = list(seeds[start : start + batch_size])
+        env = seeded_task_env(policy, chunk, chunk_seeds, noise, primers, heatmap_target, world)
+        t = time.time()
+        with torch.no_grad(), set_exploration_type(exploration):
+            td = env.rollout(C.MAX_EPISODE_STEPS, policy, break_when_any_done=False)
+        per_task = (time.time() - t) / len(chunk)
+        done = td.get(("next", "done")).squeeze(-1).numpy()
+        success = td.get(("next", "success")).squeeze(-1).numpy()
+        dropped = td.get(("next", "dropped")).squeeze(-1).numpy()
+        penetration = td.get(("next", "privileged", "penetration")).squeeze(-1).numpy()
+        invalid = td.get(("next", "privileged", "physics_invalid")).squeeze(-1).numpy()
+        for b, scene in enumerate(chunk):
+            end = episode_end(done[b])
+            ok = bool(success[b, end]) and end + 1 < C.MAX_EPISODE_STEPS + 1 and per_task < TIME_LIMIT_S
+            deepest = float(np.max(penetration[b, : end + 1]))
+            results.append(
+                EpisodeResult(int(chunk_seeds[b]), len(scene), ok, bool(dropped[b, end]), end + 1, per_task, deepest, bool(invalid[b, end]))
+            )
+    return results
