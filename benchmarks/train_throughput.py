@@ -39,9 +39,9 @@ def measure(collector: str, envs: int, iterations: int) -> tuple[float, float, d
             t1 = time.time()
             compute_advantages(trainer.net, data)
             t2 = time.time()
-            trainer._update(data, "ppo")
+            trainer.learner.update(data, "ppo")
             t3 = time.time()
-            trainer._refresh_batch_norm(data)
+            trainer.learner.refresh_batch_norm(data)
             t4 = time.time()
             parts["advantages"] += t2 - t1
             parts["ppo_epochs"] += t3 - t2

@@ -10,6 +10,9 @@ One iteration, top to bottom:
 4. refresh batch-norm statistics on the batch (after the update, so that the update sees the
    function that collected the batch: PPO's probability ratio starts at exactly 1);
 5. log, feed the curriculum with the finished episodes, checkpoint every few minutes.
+
+The collector lives in :mod:`occrl.training.collection`, the update of each phase in
+:mod:`occrl.training.learner`; :meth:`Trainer.train` is the loop.
 """
 
 from __future__ import annotations
@@ -18,29 +21,25 @@ import json
 import logging
 import math
 import time
-from functools import partial
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 import torch
 from tensordict import TensorDictBase
-from torchrl.collectors import Collector, MultiSyncCollector
-from torchrl.envs.utils import ExplorationType
-from torchrl.modules import set_recurrent_mode
 
 from occrl.baselines.scripted import ScriptedRetriever
-from occrl.envs import make_env
 from occrl.envs.episodes import run_episodes, task_scenes
 from occrl.modules import make_occnet
-from occrl.objectives import PPOHeatmapLoss, compute_advantages, heatmap_loss, imitation_nll
+from occrl.objectives import compute_advantages
 from occrl.planners import HybridPlanner
 from occrl.modules.weights import load_weights, save_weights
 from occrl.training.checkpoint import load_checkpoint, save_checkpoint
+from occrl.training.collection import TrainingCollector
 from occrl.training.config import TrainConfig
 from occrl.training.curriculum import Curriculum
 from occrl.training.dagger import ExpertMixPolicy, OnlineTeacherPolicy, label_with_expert, label_with_planner
-from occrl.training.dagger_buffer import DaggerBuffer
+from occrl.training.learner import Learner
 
 __all__ = ["Trainer", "episode_stats", "hybrid_validation_success", "training_device", "VALIDATION_SEED_BASE"]
 
@@ -60,10 +59,7 @@ IMITATION_TEACHERS = ("scripted", "hybrid", "hybrid-acting", "hierarchical")
 HIERARCHICAL_TEACHER = dict(
     plan_seconds=1.0, follow_tolerance=(0.01, math.radians(10.0)), time_limit=1e6, sweep_from="nearest", stop_when_located=True
 )
-PPO_DIAGNOSTICS = ("kl_approx", "clip_fraction", "entropy")  # ClipPPOLoss outputs logged (mean over the minibatches seen)
 
-
-RAY_WORKER_MEMORY = 2 * 1024**3  # bytes reserved per Ray collector worker
 
 # settings that change where frames are computed but not which: a run may resume under another one
 _RUNTIME_SETTINGS = {"collector": {"multi", "ray"}}
@@ -124,24 +120,6 @@ def _same_run_settings(saved: dict, current: dict) -> bool:
     for key in _MACHINE_SETTINGS:
         saved, current = {**saved, key: None}, {**current, key: None}
     return saved == current
-
-
-class SeededCollector(Collector):
-    """A ``Collector`` whose ``set_seed`` does what ``MultiSyncCollector.set_seed`` does in each
-    worker: seed the envs, the process's torch and numpy generators, then reset the envs. Ray
-    workers run this class, so a "ray" run collects the same batches as a "multi" run (tested)."""
-
-    def set_seed(self, seed: int, static_seed: bool = False) -> int:
-        out = super().set_seed(seed, static_seed=static_seed)
-        torch.manual_seed(seed)
-        np.random.seed(seed)
-        self.reset()
-        return out
-
-
-def _env_factory(stage: int, noise: float, num_envs: int, seed: int, primer_net):
-    env = make_env(batch_size=num_envs, stage=stage, noise=noise, seed=seed)
-    return env.append_transform(primer_net.make_primer())
 
 
 def episode_stats(data: TensorDictBase) -> dict:
@@ -268,22 +246,8 @@ class Trainer:
         if self.device.type != "cpu":
             self.acting_net = make_occnet(config.net_preset, heatmap=config.heatmap).eval()
             self.net.to(self.device)
-        self.loss = PPOHeatmapLoss(
-            self.net,
-            clip_epsilon=config.clip_epsilon,
-            entropy_coeff=config.entropy_coeff,
-            critic_coeff=config.critic_coeff,
-            heatmap_coeff=config.heatmap_coeff,
-            gamma=config.gamma,
-            heatmap_fraction=config.heatmap_fraction,
-        )
-        params = list(self.net.parameters())
-        if config.optimizer == "rmsprop":
-            self.optimizer = torch.optim.RMSprop(params, lr=config.lr)
-        elif config.optimizer == "adam":
-            self.optimizer = torch.optim.Adam(params, lr=config.lr)
-        else:
-            raise ValueError(f"optimizer must be 'rmsprop' or 'adam', got {config.optimizer!r}")
+        self.learner = Learner(self.net, config, self.device)
+        self.loss, self.optimizer, self.dagger = self.learner.loss, self.learner.optimizer, self.learner.dagger
         self.curriculum = Curriculum(config.start_stage, config.promote_threshold, config.promote_window)
         self.iteration = 0
         self.frames = 0
@@ -297,7 +261,6 @@ class Trainer:
             self.expert = HierarchicalPlanner(seed=self.seed, **HIERARCHICAL_TEACHER)
         else:
             self.expert = ScriptedRetriever()
-        self.dagger = DaggerBuffer(config.imitation_buffer_iters)
         for leftover in self.run_dir.glob("*.tmp"):  # a write a crash interrupted; its target is intact
             leftover.unlink()
         ckpt = self.run_dir / CHECKPOINT
@@ -336,8 +299,7 @@ class Trainer:
                 self.init_weights = {"path": str(init_weights), "sha256": _sha256(init_weights)}
                 logger.info("new run from the weights in %s", init_weights)
         self._sync_acting_net()
-        self._collector = None
-        self._collector_stage = None
+        self.collection = TrainingCollector(config, self.seed, self.acting_net, self.update_threads, ray_address)
         self._loggers = self._make_loggers(tensorboard)
 
     # ------------------------------------------------------------------ plumbing
@@ -346,9 +308,6 @@ class Trainer:
         if self.acting_net is not self.net:
             self.acting_net.load_state_dict(self.net.state_dict())
             self.acting_net.eval()
-
-    def _on_device(self, td: TensorDictBase) -> TensorDictBase:
-        return td if self.device.type == "cpu" else td.to(self.device)
 
     def _make_loggers(self, tensorboard: bool) -> list:
         from torchrl.record.loggers import CSVLogger
@@ -383,102 +342,20 @@ class Trainer:
             return "critic_warmup"
         return "ppo"
 
-    def _get_collector(self):
+    def close(self) -> None:
+        """Stop the collector (its worker processes or Ray actors)."""
+        self.collection.close()
+
+    def _make_policy(self):
+        """What the collector runs: the learner's policy, mixed with or labelled by the teacher
+        during imitation."""
         c = self.config
-        stage = self.curriculum.stage
-        if self._collector is not None and self._collector_stage == stage:
-            return self._collector
-        self.close()
         if c.imitation_iters > 0 and c.imitation_teacher == "hierarchical":
             kinds = None if c.teacher_label_kinds == "all" else tuple(c.teacher_label_kinds.split(","))
-            policy = OnlineTeacherPolicy(self.acting_net.policy, self.expert, 0.0, label_kinds=kinds)
-        elif c.imitation_iters > 0:
-            policy = ExpertMixPolicy(self.acting_net.policy, self.expert, 0.0)
-        else:
-            policy = self.acting_net.policy
-        self._policy = policy
-        if c.collector == "single":
-            self._collector = Collector(
-                partial(_env_factory, stage, c.noise, c.num_envs, self.seed, self.acting_net),
-                policy,
-                frames_per_batch=c.frames_per_batch,
-                total_frames=-1,
-                reset_at_each_iter=True,
-                exploration_type=ExplorationType.RANDOM,
-            )
-        elif c.collector in ("multi", "ray"):
-            per = c.num_envs // c.workers
-            if per * c.workers != c.num_envs:
-                raise ValueError(f"num_envs ({c.num_envs}) must be a multiple of workers ({c.workers})")
-            # worker k steps envs seeded from seed + k in both: the same batches either way (tested)
-            stages = self._worker_stages(stage)
-            factories = [partial(_env_factory, stages[k], c.noise, per, self.seed + k, self.acting_net) for k in range(c.workers)]
-            if c.collector == "multi":
-                self._collector = MultiSyncCollector(
-                    factories,
-                    policy,
-                    num_threads=self.update_threads,
-                    frames_per_batch=c.frames_per_batch,
-                    total_frames=-1,
-                    reset_at_each_iter=True,
-                    exploration_type=ExplorationType.RANDOM,
-                )
-            else:
-                from torchrl.collectors.distributed import RayCollector
-
-                from occrl.distributed import start_ray
-
-                start_ray(self.ray_address, num_cpus=c.workers)
-                self._collector = RayCollector(
-                    factories,
-                    policy,
-                    collector_class=SeededCollector,
-                    num_collectors=c.workers,
-                    sync=True,
-                    frames_per_batch=c.frames_per_batch,
-                    total_frames=2**62,  # RayCollector stops at once on -1 ("endless" elsewhere)
-                    reset_at_each_iter=True,
-                    exploration_type=ExplorationType.RANDOM,
-                    remote_configs={"num_cpus": 1, "memory": RAY_WORKER_MEMORY},
-                )
-        else:
-            raise ValueError(f"collector must be 'single', 'multi' or 'ray', got {c.collector!r}")
-        self._collector_stage = stage
-        self._iterator = iter(self._collector)
-        return self._collector
-
-    def _per_stage_success(self, data: TensorDictBase) -> dict:
-        """``success_rate_stageS`` per stage when the workers collect different stages (the rows
-        of a batch are the workers' env batches in order)."""
-        stages = self._worker_stages(self._collector_stage) if self.config.collector != "single" else [self._collector_stage]
-        if len(set(stages)) < 2:
-            return {}
-        per = data.shape[0] // len(stages)
-        out = {}
-        for st in sorted(set(stages)):
-            rows = torch.cat([torch.arange(k * per, (k + 1) * per) for k, s in enumerate(stages) if s == st])
-            succ = episode_stats(data[rows])["success"]
-            if succ:
-                out[f"success_rate_stage{st}"] = float(np.mean(succ))
-        return out
-
-    def _worker_stages(self, stage: int) -> list[int]:
-        """Curriculum stage of each collector worker: the last ``replay_stage_workers`` workers
-        stay one stage back after a promotion (see :class:`TrainConfig`)."""
-        c = self.config
-        replay = c.replay_stage_workers if stage > 1 else 0
-        return [stage] * (c.workers - replay) + [stage - 1] * replay
-
-    def close(self) -> None:
-        if self._collector is not None:
-            try:
-                self._collector.shutdown()
-            finally:
-                self._collector = None
-        if self.config.collector == "ray":
-            from occrl.distributed import stop_ray
-
-            stop_ray()
+            return OnlineTeacherPolicy(self.acting_net.policy, self.expert, 0.0, label_kinds=kinds)
+        if c.imitation_iters > 0:
+            return ExpertMixPolicy(self.acting_net.policy, self.expert, 0.0)
+        return self.acting_net.policy
 
     # ------------------------------------------------------------------ one iteration
     def _collect(self) -> TensorDictBase:
@@ -492,11 +369,7 @@ class Trainer:
 
                 if self.config.collector != "ray" or not is_worker_death(err):
                     raise
-                broken, self._collector, self._collector_stage = self._collector, None, None
-                try:  # stop the surviving actors of the broken collector
-                    broken.shutdown()
-                except Exception:  # noqa: BLE001 - the dead actor makes shutdown fail; nothing to keep
-                    pass
+                self.collection.discard()  # stops the surviving actors of the broken collector
                 if attempt == self.max_worker_restarts:
                     raise WorkerDiedError(
                         f"a Ray collector worker died at iteration {self.iteration} and {self.max_worker_restarts} "
@@ -511,109 +384,17 @@ class Trainer:
                 )
 
     def _collect_once(self) -> TensorDictBase:
-        collector = self._get_collector()
+        self.collection.ensure(self.curriculum.stage, self._make_policy)
         it_seed = self.seed * 1_000_003 + self.iteration
         torch.manual_seed(it_seed)
         beta = self._beta()
-        if isinstance(self._policy, ExpertMixPolicy):
-            self._policy.beta = beta
+        if isinstance(self.collection.policy, ExpertMixPolicy):
+            self.collection.policy.beta = beta
         if hasattr(self.expert, "reseed"):  # the planners
             self.expert.reseed(it_seed)
         if hasattr(self.expert, "reset"):  # teachers with an episode memory
             self.expert.reset()
-        collector.set_seed(it_seed)
-        collector.update_policy_weights_()
-        data = next(self._iterator)
-        if data.batch_dims == 3:  # MultiSyncCollector: [workers, envs, time]
-            data = data.reshape(-1, data.shape[-1])
-        return data
-
-    def _refresh_batch_norm(self, data: TensorDictBase) -> None:
-        """Update the encoder's batch-norm running statistics on this batch (no gradients); the
-        net otherwise stays in eval mode so collection and update see the same function."""
-        if self.config.batch_norm_frames <= 0:  # statistics frozen
-            return
-        flat = data.reshape(-1)
-        n = min(self.config.batch_norm_frames, flat.shape[0])
-        frames = flat[torch.randperm(flat.shape[0])[:n]]
-        self.net.encoder.train()
-        with torch.no_grad():
-            self.net.encoder(frames.select("pixels").copy())
-        self.net.encoder.eval()
-
-    def _step(self, terms: dict) -> None:
-        total = sum(terms.values())
-        self.optimizer.zero_grad()
-        total.backward()
-        torch.nn.utils.clip_grad_norm_(self.net.parameters(), self.config.max_grad_norm)
-        self.optimizer.step()
-
-    def _update(self, data: TensorDictBase, phase: str) -> dict:
-        c = self.config
-        B = data.shape[0]
-        sums: dict[str, float] = {}
-        count = 0
-        if phase == "imitation" and c.imitation_updates > 0:
-            self.dagger.add(data if self.device.type == "cpu" else data.to("cpu"))  # the aggregate stays in CPU memory
-            for _ in range(c.imitation_updates):
-                terms = self._imitation_terms(self._on_device(self.dagger.sample(c.minibatch_envs)))
-                self._step(terms)
-                for k, v in terms.items():
-                    sums[k] = sums.get(k, 0.0) + float(v.detach())
-                count += 1
-            return {k: v / count for k, v in sums.items()}
-        stopped_early = False
-        for _ in range(c.epochs):
-            order = torch.randperm(B)
-            for start in range(0, B, c.minibatch_envs):
-                mb = data[order[start : start + c.minibatch_envs]]
-                if phase == "ppo":
-                    out = self.loss(mb)
-                    terms = {k: v for k, v in out.items() if k.startswith("loss_")}
-                    for k in PPO_DIAGNOSTICS:  # logged, not optimised
-                        if k in out.keys():
-                            sums[k] = sums.get(k, 0.0) + float(out.get(k))
-                    if c.target_kl > 0 and count > 0 and float(out.get("kl_approx")) > 1.5 * c.target_kl:
-                        stopped_early = True  # the policy moved far enough on this batch
-                        break
-                elif phase == "critic_warmup":
-                    terms = self._critic_terms(mb)
-                else:
-                    terms = self._imitation_terms(mb)
-                self._step(terms)
-                for k, v in terms.items():
-                    sums[k] = sums.get(k, 0.0) + float(v.detach())
-                count += 1
-            if stopped_early:
-                break
-        means = {k: v / max(count, 1) for k, v in sums.items()}
-        if phase == "ppo":
-            means["updates"] = count
-        return means
-
-    def _critic_terms(self, mb: TensorDictBase) -> dict:
-        """Value loss of the value head alone (the shared trunk is not trained: through it the
-        critic's large early errors would move the policy before PPO starts)."""
-        td = mb.copy()
-        with torch.no_grad(), set_recurrent_mode(True):
-            td = self.net.trunk(td)
-        return {"loss_critic": self._value_loss(td)}
-
-    def _value_loss(self, td: TensorDictBase) -> torch.Tensor:
-        """c1 x smooth-L1 value loss of the value head on ``td`` (which holds ``"belief"``)."""
-        value = self.net.critic(td).get("state_value")
-        return self.config.critic_coeff * torch.nn.functional.smooth_l1_loss(value, td.get("value_target"))
-
-    def _imitation_terms(self, mb: TensorDictBase) -> dict:
-        c = self.config
-        td = mb.copy()
-        with set_recurrent_mode(True):
-            td = self.net.trunk(td)
-        terms = {"loss_imitation": imitation_nll(self.net, td, c.imitation_min_scale)}
-        terms["loss_critic"] = self._value_loss(td)
-        if self.net.heatmap_head is not None and c.heatmap_coeff > 0:
-            terms["loss_heatmap"] = c.heatmap_coeff * heatmap_loss(self.net.heatmap_head, td, c.heatmap_fraction)
-        return terms
+        return self.collection.next_batch(it_seed)
 
     def _hybrid_success(self) -> float:
         """The promotion statistic of the current network and stage (``promotion_check``)."""
@@ -664,12 +445,12 @@ class Trainer:
                     pass  # labelled while collecting (OnlineTeacherPolicy), in every phase
                 elif phase == "imitation":
                     label_with_expert(data, self.expert)
-                batch = self._on_device(data)  # the collected batch (CPU) where the learner is
+                batch = self.learner.on_device(data)  # the collected batch (CPU) where the learner is
                 compute_advantages(self.net, batch, c.gamma, c.gae_lambda)
-                losses = self._update(batch, phase)
+                losses = self.learner.update(batch, phase)
                 # after the update, for the next collection: refreshed between collection and update,
                 # the statistics changed the policy under PPO's ratio (|log-prob change| 0.13 on average)
-                self._refresh_batch_norm(batch)
+                self.learner.refresh_batch_norm(batch)
                 self._sync_acting_net()
                 stats = episode_stats(data)
                 promoted = False
@@ -704,7 +485,7 @@ class Trainer:
                 }
                 if hybrid_rate is not None:
                     summary["hybrid_success_rate"] = hybrid_rate
-                summary.update(self._per_stage_success(data))
+                summary.update(self.collection.per_stage_success(data, episode_stats))
                 self._log(summary)
                 if promoted:
                     logger.info("promoted to stage %d at iteration %d", self.curriculum.stage, self.iteration)

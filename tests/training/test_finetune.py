@@ -107,7 +107,9 @@ def test_removed_settings_resume_when_off_and_are_refused_when_on(tmp_path):
 def test_replay_workers_keep_the_previous_stage(tmp_path):
     cfg = get_train_config("tiny", collector="multi", workers=2, num_envs=4, replay_stage_workers=1, start_stage=2)
     tr = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False)
-    assert tr._worker_stages(2) == [2, 1] and tr._worker_stages(3) == [3, 2] and tr._worker_stages(1) == [1, 1]
+    assert (
+        tr.collection.worker_stages(2) == [2, 1] and tr.collection.worker_stages(3) == [3, 2] and tr.collection.worker_stages(1) == [1, 1]
+    )
     with pytest.raises(ValueError, match="replay_stage_workers=1 needs collector 'multi' or 'ray'"):
         Trainer(get_train_config("tiny", replay_stage_workers=1), tmp_path / "single", seed=0, progress=False)
     with pytest.raises(ValueError, match="fewer than workers=2"):

@@ -46,7 +46,7 @@ def test_ray_collection_and_ppo_update_match_multi_and_survive_a_dead_worker(mul
         # same seeds -> the same batch as the multi-process collector -> the same weights
         assert _same(_weights(trainer), multi_reference[0])
 
-        ray.kill(trainer._collector.remote_collectors[0], no_restart=True)
+        ray.kill(trainer.collection.collector.remote_collectors[0], no_restart=True)
         with caplog.at_level(logging.ERROR, logger="occrl.training.trainer"):
             trainer.train(iterations=2)
         assert any("Ray collector worker died" in r.getMessage() for r in caplog.records)
