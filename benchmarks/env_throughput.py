@@ -25,7 +25,7 @@ from occrl.envs import DEFAULT_PHYSICS, LEGACY_PHYSICS, PhysicsSettings, Scene, 
 from occrl.envs.render import DEFAULT_CANVAS, render_labels
 from occrl.envs.robot_frame import robot_centric_points
 from occrl.envs.visibility import detect, visible_fractions
-from occrl.envs.world import wall_polygons
+from occrl.envs.shelf_geometry import wall_polygons
 
 
 def physics_ms(stage: int, n: int, physics: PhysicsSettings = DEFAULT_PHYSICS) -> float:

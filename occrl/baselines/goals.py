@@ -13,13 +13,13 @@ import numpy as np
 
 from occrl.envs import world_constants as C
 from occrl.envs.geometry import polygons_overlap, transform_points
-from occrl.envs.world import ShelfWorld, gripper_polygons, inverse_pose, wall_polygons
+from occrl.envs.shelf_geometry import SHELF_WALLS, gripper_polygons, inverse_pose
+from occrl.envs.world import ShelfWorld
 
 from occrl.baselines.motion import between_fingers
 
 __all__ = ["SimEntry", "GoalSpec", "ReachGoal", "HoldGoal", "grasp_poses", "compose_pose", "MAX_GRASP_ANGLE"]
 
-_WALLS = wall_polygons()
 MAX_GRASP_ANGLE = math.radians(50.0)  # reach goals: grasps with the arm turned at most this much
 
 
@@ -172,7 +172,7 @@ def grasp_poses(world: ShelfWorld, index: int, prefer_angle: float = 0.0, limit:
             if not between_fingers(pose, C.GRIPPER_STROKE, world.nominal_vertices, poses, index, margin):
                 continue
             g = [transform_points(p, pose) for p in parts]
-            if any(polygons_overlap(q, w, clearance=0.002) for q in g for w in _WALLS):
+            if any(polygons_overlap(q, w, clearance=0.002) for q in g for w in SHELF_WALLS):
                 continue
             if any(polygons_overlap(q, target, clearance=0.001) for q in g):
                 continue

@@ -8,11 +8,9 @@ import numpy as np
 
 from occrl.envs import world_constants as C
 from occrl.envs.geometry import point_in_convex_polygon, polygons_overlap, transform_points
-from occrl.envs.world import gripper_polygons, wall_polygons
+from occrl.envs.shelf_geometry import SHELF_WALLS, gripper_polygons
 
 __all__ = ["HidingRegion", "probe_points"]
-
-_WALLS = wall_polygons()
 
 
 class HidingRegion:
@@ -64,7 +62,7 @@ class HidingRegion:
         tv = tv - tv.mean(axis=0)
         r = float(np.linalg.norm(tv, axis=1).max())
         small = tv * max(0.0, 1.0 - shrink / max(r, 1e-6))
-        views = [(np.asarray(v, float), list(occ) + list(_WALLS)) for v, occ in views]
+        views = [(np.asarray(v, float), list(occ) + list(SHELF_WALLS)) for v, occ in views]
         self.placements = 0
         for x in np.arange(-C.SHELF_HALF_WIDTH + 0.01, C.SHELF_HALF_WIDTH, step):
             for y in np.arange(0.01, C.SHELF_DEPTH, step):

@@ -73,7 +73,8 @@ from tensordict.nn import TensorDictModuleBase
 from occrl.envs import world_constants as C
 from occrl.envs.geometry import point_in_convex_polygon, polygons_overlap, transform_points
 from occrl.envs.scene import SceneObject
-from occrl.envs.world import ShelfWorld, gripper_polygons
+from occrl.envs.shelf_geometry import gripper_polygons
+from occrl.envs.world import ShelfWorld
 from occrl.planners.recreate import RecreatedState, make_world
 
 from occrl.baselines.hiding import HidingRegion

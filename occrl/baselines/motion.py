@@ -15,7 +15,7 @@ import numpy as np
 
 from occrl.envs import world_constants as C
 from occrl.envs.geometry import polygons_overlap, transform_points
-from occrl.envs.world import gripper_polygons, inverse_pose, wall_polygons
+from occrl.envs.shelf_geometry import SHELF_WALLS, gripper_polygons, inverse_pose
 
 from occrl.baselines.hiding import probe_points
 
@@ -37,8 +37,7 @@ __all__ = [
 WALL_TOLERANCE = 0.003  # m of wall penetration that counts as invalid
 OPEN = -1.0
 CLOSE = 1.0
-_WALLS = wall_polygons()
-_WALL_BOXES = [(w[:, 0].min(), w[:, 0].max(), w[:, 1].min(), w[:, 1].max()) for w in _WALLS]
+_WALL_BOXES = [(w[:, 0].min(), w[:, 0].max(), w[:, 1].min(), w[:, 1].max()) for w in SHELF_WALLS]
 STROKE_HALF = C.GRIPPER_STROKE / 2
 OUT_Y = -0.07  # gripper origin behind this line (and the heading within 45 deg): no part is in the shelf
 STALE_OVERLAP = 0.005  # a remembered object overlapping a fresher one or the gripper deeper than this is stale
@@ -121,7 +120,7 @@ def motion_allowed(gripper_pose, opening, vertices, object_poses, forbidden=None
     for poly in polys:
         x0, y0 = poly.min(axis=0)
         x1, y1 = poly.max(axis=0)
-        for (wx0, wx1, wy0, wy1), wall in zip(_WALL_BOXES, _WALLS):
+        for (wx0, wx1, wy0, wy1), wall in zip(_WALL_BOXES, SHELF_WALLS):
             if x1 < wx0 + tol or x0 > wx1 - tol or y1 < wy0 + tol or y0 > wy1 - tol:
                 continue  # bounding boxes overlap less than the tolerance
             if polygons_overlap(poly, wall, clearance=-tol):

@@ -28,7 +28,8 @@ from tensordict.nn import TensorDictModuleBase
 
 from occrl.envs import world_constants as C
 from occrl.envs.geometry import convex_hull, polygons_overlap, transform_points, transform_polygons
-from occrl.envs.world import grasp_candidate, gripper_polygons, wall_polygons
+from occrl.envs.shelf_geometry import SHELF_WALLS, gripper_polygons
+from occrl.envs.world import grasp_candidate
 
 __all__ = ["ScriptedRetriever"]
 
@@ -37,7 +38,6 @@ _FIT_WIDTH = C.GRIPPER_STROKE - 0.012
 _OFFSETS = np.arange(0.001, 0.0361, 0.001)
 _LATERAL_OFFSETS = np.concatenate([[0.0], np.stack([_OFFSETS, -_OFFSETS], 1).ravel()])
 _OPEN_GRIPPER = gripper_polygons(C.GRIPPER_STROKE)
-_WALLS = wall_polygons()
 _OUTSIDE_Y = -0.01  # fingertips behind this line are out of the shelf
 _PLAN_RESOLUTION = np.array([0.004, 0.004, 0.05])  # target motion (m, m, rad) that triggers a re-plan
 
@@ -232,7 +232,7 @@ def _path_clear(grasp: np.ndarray, angle: float) -> bool:
     far = grasp + _way_out(grasp, angle) * back
     for part in _OPEN_GRIPPER:
         swept = convex_hull(np.concatenate([transform_points(part, (*grasp, angle)), transform_points(part, (*far, angle))]))
-        if any(polygons_overlap(swept, w, clearance=0.001) for w in _WALLS):
+        if any(polygons_overlap(swept, w, clearance=0.001) for w in SHELF_WALLS):
             return False
     return True
 

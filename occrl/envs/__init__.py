@@ -6,7 +6,8 @@ from occrl.envs.pipeline import make_env, observation_transforms
 from occrl.envs.scene import STAGES, Scene, SceneObject
 from occrl.envs.shelf_env import ShelfEnv
 from occrl.envs.transforms import HeatmapTarget, OcclusionRender, RobotCentricCrop
-from occrl.envs.world import ShelfWorld, StepOutcome
+from occrl.envs.task import StepOutcome
+from occrl.envs.world import ShelfWorld
 
 __all__ = [
     "Scene",

@@ -20,7 +20,8 @@ from occrl.envs.mujoco_camera import VISIBLE_GROUPS, CameraConfig, close_rendere
 from occrl.envs.mujoco_model import FINGER_CLOSED_TARGET, OBJECT_HEIGHT_RANGE, TIMESTEP, build_mjcf, type_height
 from occrl.envs.physics_settings import INVALID_PENETRATION
 from occrl.envs.scene import Scene
-from occrl.envs.world import StepOutcome, beyond_walls
+from occrl.envs.shelf_geometry import beyond_walls
+from occrl.envs.task import StepOutcome, task_outcome
 
 __all__ = ["MujocoWorld", "FINGER_TIME", "SETTLE_TIME"]
 
@@ -229,20 +230,8 @@ class MujocoWorld:
         return deepest, beyond_walls(self.object_poses())
 
     def _outcome(self) -> StepOutcome:
-        poses = self.object_poses()
-        held = self.held_object()
-        t = self.target_index
-        retrieved = held == t and poses[t, 1] < C.RETRIEVED_Y
-        z = self.object_heights_z()
-        dropped = []
-        for i in range(self.num_objects):
-            if i == t and held == t:
-                continue  # the target on its way out in the gripper
-            x, y = poses[i, 0], poses[i, 1]
-            if y < C.FRONT_EDGE_Y or y > C.SHELF_DEPTH + 0.05 or abs(x) > C.SHELF_HALF_WIDTH + 0.05 or z[i] < -0.05:
-                dropped.append(i)
-        reward = C.STEP_REWARD + (C.DROP_PENALTY if dropped else 0.0)
-        return StepOutcome(reward=reward, retrieved=bool(retrieved), dropped=tuple(dropped))
+        # an object that fell off the shelf (below the board) counts as dropped wherever it lies
+        return task_outcome(self.object_poses(), self.held_object(), self.target_index, fallen=self.object_heights_z() < -0.05)
 
     def _perturb(self) -> None:
         """Density and friction ~ N(nominal, level * nominal), floored at 5 % and 0 (as in 2D)."""

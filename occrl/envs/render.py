@@ -22,7 +22,7 @@ from PIL import Image, ImageDraw
 from occrl.envs import world_constants as C
 from occrl.envs.geometry import transform_points
 from occrl.envs.visibility import pad_polygons, angular_extents
-from occrl.envs.world import gripper_polygons, wall_polygons
+from occrl.envs.shelf_geometry import SHELF_WALLS, gripper_polygons
 
 __all__ = [
     "Canvas",
@@ -50,7 +50,6 @@ PALETTE = np.array(
     dtype=np.uint8,
 )
 _FAR = 10.0  # m, length of shadow and field-of-view rays (well beyond any canvas)
-_WALLS = wall_polygons()
 
 
 @dataclass(frozen=True)
@@ -194,9 +193,9 @@ def _static_pixels(canvas: Canvas) -> tuple[np.ndarray, list, np.ndarray]:
     """Walls and front edge in pixel coordinates, and the walls padded for shadow casting
     (they never move)."""
     if canvas not in _STATIC_CACHE:
-        walls = canvas.to_pixels(np.stack(_WALLS))
+        walls = canvas.to_pixels(np.stack(SHELF_WALLS))
         edge = canvas.to_pixels(np.array([[-C.SHELF_HALF_WIDTH, 0.0], [C.SHELF_HALF_WIDTH, 0.0]]))
-        _STATIC_CACHE[canvas] = (walls, edge.ravel().tolist(), pad_polygons(_WALLS, C.MAX_VERTICES))
+        _STATIC_CACHE[canvas] = (walls, edge.ravel().tolist(), pad_polygons(SHELF_WALLS, C.MAX_VERTICES))
     return _STATIC_CACHE[canvas]
 
 

@@ -13,6 +13,7 @@ from typing import Any, Iterable, Sequence
 import numpy as np
 
 from occrl.envs import world_constants as C
+from occrl.envs.shelf_geometry import SHELF_WALLS, gripper_polygons
 from occrl.envs.geometry import (
     convex_hull,
     is_convex_ccw,
@@ -309,11 +310,10 @@ def validate_objects(objects: Sequence[SceneObject]) -> None:
 
 
 def _validate_gripper(gripper_pose, objects: Sequence[SceneObject]) -> None:
-    from occrl.envs.world import gripper_polygons, wall_polygons  # world imports this module
 
     parts = [transform_points(p, gripper_pose) for p in gripper_polygons(C.GRIPPER_STROKE)]
     for part in parts:
-        for w in wall_polygons():
+        for w in SHELF_WALLS:
             if polygons_overlap(part, w, clearance=-1e-9):
                 raise ValueError(f"the open gripper at {tuple(gripper_pose)} overlaps a shelf wall")
         for i, o in enumerate(objects):

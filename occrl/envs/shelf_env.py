@@ -15,7 +15,8 @@ from occrl.envs import world_constants as C
 from occrl.envs.physics_settings import DEFAULT_PHYSICS, PhysicsSettings
 from occrl.envs.scene import STAGES, Scene
 from occrl.envs.visibility import detect, visible_fractions
-from occrl.envs.world import ShelfWorld, wall_polygons
+from occrl.envs.shelf_geometry import SHELF_WALLS
+from occrl.envs.world import ShelfWorld
 
 __all__ = ["ShelfEnv", "MAX_SLOTS", "MAX_POLY_VERTICES", "pad_polygon"]
 
@@ -24,7 +25,6 @@ logger = logging.getLogger(__name__)
 MAX_SLOTS = C.MAX_OBJECTS
 MAX_POLY_VERTICES = C.MAX_VERTICES
 MAX_TYPE_ID = 1_000_000
-_WALLS = wall_polygons()
 
 
 def pad_polygon(vertices: np.ndarray, size: int = MAX_POLY_VERTICES) -> np.ndarray:
@@ -43,7 +43,7 @@ def pad_polygon(vertices: np.ndarray, size: int = MAX_POLY_VERTICES) -> np.ndarr
     return out
 
 
-_WALLS_PADDED = np.stack([pad_polygon(w).astype(float) for w in _WALLS])
+_WALLS_PADDED = np.stack([pad_polygon(w).astype(float) for w in SHELF_WALLS])
 
 
 class ShelfEnv(EnvBase):

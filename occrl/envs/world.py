@@ -31,7 +31,6 @@ from __future__ import annotations
 import copy
 import logging
 import math
-from dataclasses import dataclass
 
 import numpy as np
 import pymunk
@@ -48,10 +47,13 @@ from occrl.envs.geometry import (
     transform_points,
     transform_polygons,
 )
+from occrl.envs.task import StepOutcome, task_outcome
+from occrl.envs.shelf_geometry import SHELF_WALLS, beyond_walls, gripper_polygons, inverse_pose, wall_polygons
 from occrl.envs.physics_settings import DEFAULT_PHYSICS, INVALID_PENETRATION, PhysicsSettings
 from occrl.envs.scene import Scene
 
-__all__ = ["ShelfWorld", "StepOutcome", "gripper_polygons", "wall_polygons", "inverse_pose", "grasp_candidate", "beyond_walls"]
+# the shelf geometry (gripper_polygons, wall_polygons, inverse_pose, beyond_walls) lives in occrl.envs.shelf_geometry
+__all__ = ["ShelfWorld", "grasp_candidate"]
 
 logger = logging.getLogger(__name__)
 
@@ -64,83 +66,11 @@ GRASP_ERROR_BIAS = 1e-8
 _CONTACT_DEPTHS = pymunk.batch.ArbiterFields.DISTANCE_1 | pymunk.batch.ArbiterFields.DISTANCE_2
 
 
-def gripper_polygons(opening: float) -> list[np.ndarray]:
-    """Gripper outline in its own frame: palm, left finger, right finger, forearm (CCW boxes).
-
-    Examples:
-        >>> from occrl.envs.world import gripper_polygons
-        >>> palm, left, right, forearm = gripper_polygons(0.085)
-        >>> round(float(right[:, 0].min() - left[:, 0].max()), 3)  # the gap between the fingers
-        0.085
-    """
-    h = opening / 2.0
-    return [
-        _box(-C.PALM_WIDTH / 2, -C.PALM_DEPTH, C.PALM_WIDTH / 2, 0.0),
-        _box(-h - C.FINGER_WIDTH, 0.0, -h, C.FINGER_LENGTH),
-        _box(h, 0.0, h + C.FINGER_WIDTH, C.FINGER_LENGTH),
-        _box(-C.FOREARM_WIDTH / 2, -C.PALM_DEPTH - C.FOREARM_LENGTH, C.FOREARM_WIDTH / 2, -C.PALM_DEPTH),
-    ]
-
-
-def wall_polygons() -> list[np.ndarray]:
-    """Left, right and back wall of the shelf in the shelf frame.
-
-    Examples:
-        >>> from occrl.envs.world import wall_polygons
-        >>> left, right, back = wall_polygons()
-        >>> float(back[:, 1].min())  # the back wall starts at the shelf depth
-        0.35
-    """
-    w, d, t = C.SHELF_HALF_WIDTH, C.SHELF_DEPTH, C.WALL_THICKNESS
-    return [
-        _box(-w - t, 0.0, -w, d + t),
-        _box(w, 0.0, w + t, d + t),
-        _box(-w - t, d, w + t, d + t),
-    ]
-
-
-def beyond_walls(poses: np.ndarray) -> bool:
-    """Whether a centroid of ``poses`` (n, 2 or 3) lies beyond the back wall, or beyond a side wall
-    level with the shelf (in front of the shelf, y < 0, an object is off it, not through a wall).
-
-    Examples:
-        >>> import numpy as np
-        >>> from occrl.envs.world import beyond_walls
-        >>> bool(beyond_walls(np.array([[0.0, 0.36, 0.0]]))), bool(beyond_walls(np.array([[0.3, -0.1, 0.0]])))
-        (True, False)
-    """
-    x, y = poses[:, 0], poses[:, 1]
-    return bool(np.any((y > C.SHELF_DEPTH) | ((y >= C.FRONT_EDGE_Y) & (np.abs(x) > C.SHELF_HALF_WIDTH))))
-
-
-def _box(x0: float, y0: float, x1: float, y1: float) -> np.ndarray:
-    return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], dtype=float)
-
-
-_WALLS = wall_polygons()
-
-
 def _limited(constraint: pymunk.Constraint, max_bias: float, max_force: float) -> pymunk.Constraint:
     """Set a joint's limits through the C API (the attribute setters are slow in a hot loop)."""
     _cp.cpConstraintSetMaxBias(constraint._constraint, max_bias)
     _cp.cpConstraintSetMaxForce(constraint._constraint, max_force)
     return constraint
-
-
-def inverse_pose(pose) -> tuple[float, float, float]:
-    """The pose that maps shelf-frame points into the frame of ``pose``.
-
-    Examples:
-        >>> import math
-        >>> from occrl.envs.geometry import transform_points
-        >>> from occrl.envs.world import inverse_pose
-        >>> pose = (0.1, 0.2, math.pi / 2)
-        >>> transform_points([[0.1, 0.2]], inverse_pose(pose)).round(6).tolist()  # the pose's origin
-        [[0.0, 0.0]]
-    """
-    x, y, th = (float(v) for v in pose)
-    c, s = math.cos(th), math.sin(th)
-    return (-(c * x + s * y), -(-s * x + c * y), -th)
 
 
 def grasp_candidate(gripper_pose, opening: float, polygons: list[np.ndarray]) -> tuple[int | None, dict[int, np.ndarray]]:
@@ -183,28 +113,6 @@ def _near(polygons: list[np.ndarray], centre: np.ndarray, radius: float) -> list
         r = math.sqrt(float(((p - c) ** 2).sum(axis=1).max()))
         out.append(math.hypot(c[0] - centre[0], c[1] - centre[1]) <= r + radius)
     return out
-
-
-@dataclass(frozen=True)
-class StepOutcome:
-    """What one action did. ``dropped`` lists object indices that left the shelf.
-
-    Examples:
-        >>> from occrl.envs import Scene, ShelfWorld, StepOutcome
-        >>> StepOutcome(reward=-1.0, retrieved=False, dropped=(2,)).terminal
-        True
-        >>> out = ShelfWorld(Scene.sample(stage=1, seed=0)).step([1.0, 0.0, 0.0, -1.0])
-        >>> out.retrieved, out.dropped, out.terminal
-        (False, (), False)
-    """
-
-    reward: float
-    retrieved: bool
-    dropped: tuple[int, ...]
-
-    @property
-    def terminal(self) -> bool:
-        return self.retrieved or bool(self.dropped)
 
 
 class ShelfWorld:
@@ -504,17 +412,7 @@ class ShelfWorld:
         return bool(touching)
 
     def _outcome(self) -> StepOutcome:
-        poses = self.object_poses()
-        retrieved = self.target_index >= 0 and self.held == self.target_index and poses[self.target_index, 1] < C.RETRIEVED_Y
-        dropped = []
-        for i in range(self.num_objects):
-            if i == self.target_index and self.held == i:
-                continue  # the target on its way out in the gripper
-            x, y = poses[i, 0], poses[i, 1]
-            if y < C.FRONT_EDGE_Y or y > C.SHELF_DEPTH + 0.05 or abs(x) > C.SHELF_HALF_WIDTH + 0.05:
-                dropped.append(i)
-        reward = C.STEP_REWARD + (C.DROP_PENALTY if dropped else 0.0)
-        return StepOutcome(reward=reward, retrieved=bool(retrieved), dropped=tuple(dropped))
+        return task_outcome(self.object_poses(), self.held, self.target_index)
 
     def _perturb(self) -> None:
         lvl, rng = self.noise, self.rng
@@ -549,7 +447,7 @@ class ShelfWorld:
         inv = inverse_pose(pose)
         outer = self.opening / 2.0 + C.FINGER_WIDTH  # outer face of each finger, gripper frame
         half = C.GRIPPER_STROKE / 2.0  # half the opening the fingers reach
-        shapes = [*self.simulated_polygons(), *_WALLS]
+        shapes = [*self.simulated_polygons(), *SHELF_WALLS]
         sweep_centre = transform_points(np.array([[0.0, C.FINGER_LENGTH / 2.0]]), pose)[0]
         near = _near(shapes, sweep_centre, math.hypot(half + C.FINGER_WIDTH, C.FINGER_LENGTH / 2.0))
         for local in (transform_points(p, inv) for p, n in zip(shapes, near) if n):

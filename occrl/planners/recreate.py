@@ -16,11 +16,11 @@ from occrl.envs import world_constants as C
 from occrl.envs.geometry import polygons_overlap, transform_points
 from occrl.envs.physics_settings import DEFAULT_PHYSICS
 from occrl.envs.scene import Scene, SceneObject
-from occrl.envs.world import ShelfWorld, grasp_candidate, gripper_polygons, wall_polygons
+from occrl.envs.shelf_geometry import gripper_polygons
+from occrl.envs.world import ShelfWorld, grasp_candidate
 
 __all__ = ["RecreatedState", "recreate", "with_target", "make_world"]
 
-_WALLS = wall_polygons()
 # the planners' imagined worlds: the execution physics, without the validity measure
 PLANNING_PHYSICS = replace(DEFAULT_PHYSICS, measure_validity=False)
 

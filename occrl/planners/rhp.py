@@ -25,13 +25,12 @@ from occrl.envs import world_constants as C
 from occrl.envs.render import DEFAULT_CANVAS, labels_to_pixels, render_labels
 from occrl.envs.robot_frame import robot_centric_points
 from occrl.envs.visibility import detect, visible_fractions
-from occrl.envs.world import ShelfWorld, wall_polygons
+from occrl.envs.shelf_geometry import SHELF_WALLS
+from occrl.envs.world import ShelfWorld
 from occrl.modules.occnet import OccNet
 from occrl.planners.recreate import RecreatedState, make_world
 
 __all__ = ["RHPResult", "rhp_batched", "rhp_sequential", "render_pixels", "NetworkStepper"]
-
-_WALLS = wall_polygons()
 
 
 def render_pixels(worlds: Sequence[ShelfWorld]) -> torch.Tensor:
@@ -51,7 +50,7 @@ def render_pixels(worlds: Sequence[ShelfWorld]) -> torch.Tensor:
     for w in worlds:
         polys = w.object_world_polygons()
         gp = w.gripper_pose()
-        seen = detect(visible_fractions(polys, gp, _WALLS)) if polys else np.zeros(0, bool)
+        seen = detect(visible_fractions(polys, gp, SHELF_WALLS)) if polys else np.zeros(0, bool)
         labels.append(
             render_labels(gp, w.opening, [p for p, s in zip(polys, seen) if s], [i == w.target_index for i, s in enumerate(seen) if s])
         )

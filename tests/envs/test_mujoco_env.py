@@ -21,7 +21,7 @@ from occrl.envs import world_constants as C  # noqa: E402
 from occrl.envs.mujoco_camera import gl_available
 from occrl.envs.mujoco_world import MujocoWorld  # noqa: E402
 from occrl.envs.visibility import visible_fractions  # noqa: E402
-from occrl.envs.world import wall_polygons  # noqa: E402
+from occrl.envs.shelf_geometry import wall_polygons  # noqa: E402
 from tests.helpers import scene  # noqa: E402
 
 needs_gl = pytest.mark.skipif(not gl_available()[0], reason=f"no OpenGL backend for MuJoCo: {gl_available()[1]}")
@@ -213,3 +213,18 @@ def test_make_env_backend_is_now_world():
     assert env.reset()["pixels"].shape[-1] == 64
     with pytest.raises(ValueError, match="world must be 'pymunk' or 'mujoco'"):
         make_env(batch_size=1, world="box2d")
+
+
+def test_both_worlds_offer_the_world_protocol_and_share_the_task():
+    from occrl.envs import ShelfWorld
+    from occrl.envs.task import World, task_outcome
+
+    s = scene([(0.05, 0.2, 0.4, True)])
+    pymunk_world, mujoco_world = ShelfWorld(s), MujocoWorld(s, visibility="rays")
+    try:
+        assert isinstance(pymunk_world, World) and isinstance(mujoco_world, World)
+        for world in (pymunk_world, mujoco_world):
+            out = world.step([0.0, 0.0, 0.0, -1.0])
+            assert out == task_outcome(world.object_poses(), world.held, world.target_index)  # nothing fell
+    finally:
+        mujoco_world.close()

@@ -12,7 +12,7 @@ from occrl.envs import DEFAULT_PHYSICS, LEGACY_PHYSICS, PhysicsSettings, Scene, 
 from occrl.envs import world_constants as C
 from occrl.envs.geometry import transform_points
 from occrl.envs.physics_validity import adversarial_pushing, pymunk_world_factory
-from occrl.envs.world import gripper_polygons, wall_polygons
+from occrl.envs.shelf_geometry import gripper_polygons, wall_polygons
 from tests.helpers import square
 
 BOUND = 0.002  # m, the design's penetration bound

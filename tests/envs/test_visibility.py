@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from occrl.envs.visibility import detect, visible_fractions
-from occrl.envs.world import wall_polygons
+from occrl.envs.shelf_geometry import wall_polygons
 
 CAMERA = np.array([0.0, -0.1, 0.0])  # at the front, looking into the shelf (+y)
 
