@@ -215,9 +215,9 @@ def _eval(args: argparse.Namespace) -> int:
             )
         finally:
             _stop_ray_if_used(args)
-        from occrl.eval.sweep import summarize_sweep, sweep_tables
+        from occrl.eval.sweep import sweep_tables
 
-        print(sweep_tables(summarize_sweep(out)))
+        print(sweep_tables(json.loads((out / "results.json").read_text())))  # the rows run_sweep just wrote
         print(f"wrote {out / 'results.csv'}, {out / 'results.json'}, {out / 'sweep.png'}, {out / 'films'}")
         return 0
     if not args.method:
@@ -440,8 +440,20 @@ NON_NEGATIVE_NUMBER = _bounded(float, 0.0, what="a number >= 0")
 DISCOUNT = _bounded(float, 0.0, 1.0, low_open=True, what="a number in (0, 1]")
 # argparse types of the training settings that are not plain non-negative integers or numbers
 SETTING_TYPES = {
-    **{name: COUNT for name in ("num_envs", "steps_per_env", "workers", "epochs", "minibatch_envs", "imitation_buffer_iters")},
-    **{name: COUNT for name in ("promote_window", "promotion_eval_every", "promotion_eval_tasks")},
+    **{
+        name: COUNT
+        for name in (
+            "num_envs",
+            "steps_per_env",
+            "workers",
+            "epochs",
+            "minibatch_envs",
+            "imitation_buffer_iters",
+            "promote_window",
+            "promotion_eval_every",
+            "promotion_eval_tasks",
+        )
+    },
     **{name: FRACTION for name in ("heatmap_fraction", "imitation_beta_min", "promote_threshold", "gae_lambda", "noise")},
     "gamma": DISCOUNT,
 }

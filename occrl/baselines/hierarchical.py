@@ -72,6 +72,7 @@ from tensordict.nn import TensorDictModuleBase
 
 from occrl.envs import world_constants as C
 from occrl.envs.geometry import point_in_convex_polygon, polygons_overlap, transform_points
+from occrl.envs.perception import OBSERVATION_KEYS
 from occrl.envs.scene import SceneObject
 from occrl.envs.shelf_geometry import gripper_polygons
 from occrl.envs.world import ShelfWorld
@@ -183,16 +184,7 @@ class HierarchicalPlanner(TensorDictModuleBase):
         4
     """
 
-    in_keys = [
-        "is_init",
-        "gripper_pose",
-        "gripper_opening",
-        "gripper_closed",
-        "objects",
-        "target_type",
-        "target_vertices",
-        "target_num_vertices",
-    ]
+    in_keys = ["is_init", *OBSERVATION_KEYS]
     out_keys = ["action"]
 
     def __init__(

@@ -17,9 +17,21 @@ from occrl.envs.geometry import transform_polygons
 from occrl.envs.scene import canonical_polygon, validate_vertices
 
 
-__all__ = ["detected_polygons", "observation_from_detections", "DETECTION_KEYS"]
+__all__ = ["detected_polygons", "observation_from_detections", "DETECTION_KEYS", "OBSERVATION_KEYS"]
 
 DETECTION_KEYS = ("type_id", "pose", "vertices")
+# What a decision maker that reads only perception may read of an observation (besides the
+# network input "pixels" and the episode-start flag "is_init"): the gripper's state, the
+# detections under "objects", and the target's type and shape (observation_from_detections).
+OBSERVATION_KEYS = (
+    "gripper_pose",
+    "gripper_opening",
+    "gripper_closed",
+    "objects",
+    "target_type",
+    "target_vertices",
+    "target_num_vertices",
+)
 
 
 def _finite_vector(name: str, value, size: int, allowed: str) -> np.ndarray:

@@ -23,6 +23,7 @@ from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
 
 from occrl.envs import world_constants as C
+from occrl.envs.perception import OBSERVATION_KEYS
 from occrl.modules.occnet import OccNet, require_recurrent_state
 from occrl.planners.recreate import recreate
 from occrl.planners.rhp import RHPResult, rhp_batched, rhp_sequential
@@ -141,19 +142,7 @@ class HybridPlanner(TensorDictModuleBase):
         self.rollout_min_scale = float(rollout_min_scale)
         self.generator = torch.Generator().manual_seed(int(seed))
         self.decisions: list[Decision] = []
-        self.in_keys = [
-            "pixels",
-            "is_init",
-            "recurrent_state_h",
-            "recurrent_state_c",
-            "gripper_pose",
-            "gripper_opening",
-            "gripper_closed",
-            "objects",
-            "target_type",
-            "target_vertices",
-            "target_num_vertices",
-        ]
+        self.in_keys = ["pixels", "is_init", "recurrent_state_h", "recurrent_state_c", *OBSERVATION_KEYS]
         self.out_keys = ["action", ("next", "recurrent_state_h"), ("next", "recurrent_state_c"), "heatmap"]
 
     def reseed(self, seed: int) -> None:
