@@ -74,3 +74,12 @@ def test_film_strips_replay_the_sweep_episodes_of_the_hybrid_planner(tmp_path):
     solved = sum(e["success"] for e in point["episodes"])
     paths = sweep_films(out, "hybrid-2x2", solved=solved, failed=2 - solved)  # raises if a replay differs
     assert len(paths) == 2 and all(p.stat().st_size > 10_000 for p in paths)
+
+
+def test_wilson_interval_always_holds_the_rate():
+    # at 0 % and 100 % the computed bound can land 1e-16 beside the rate (6/6, 0/11), which broke
+    # the sweep plot's error bars ("yerr must not contain negative values")
+    for n in range(1, 60):
+        for k in range(n + 1):
+            lo, hi = wilson_interval(k, n)
+            assert 0.0 <= lo <= k / n <= hi <= 1.0, (k, n, lo, hi)
