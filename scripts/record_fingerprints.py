@@ -23,7 +23,7 @@ def main() -> None:
     parser.add_argument("--out", default=str(Path(__file__).resolve().parent.parent / "tests" / "data" / "fingerprints.json"))
     args = parser.parse_args()
     fps = all_fingerprints()
-    Path(args.out).write_text(json.dumps(fps, indent=1, sort_keys=True) + "\n")
+    Path(args.out).write_text(json.dumps(fps, indent=2, sort_keys=True) + "\n")
     for name, fp in fps["episodes"].items():
         print(f"{name:36s} {fp['steps']:3d} actions, success {fp['success']}, dropped {fp['dropped']}, {fp['actions']}")
     print(f"{len(fps['presets'])} presets; written to {args.out}")

@@ -13,7 +13,7 @@ import torch
 from tensordict import TensorDict, TensorDictBase
 
 from occrl.envs import world_constants as C
-from occrl.envs.geometry import transform_polygons
+from occrl.envs.observation import MAX_POLY_VERTICES, MAX_SLOTS, MAX_TYPE_ID, detected_world_polygons, pad_polygon
 from occrl.envs.scene import canonical_polygon, validate_vertices
 
 
@@ -72,17 +72,15 @@ def detected_polygons(obs: TensorDictBase) -> list[tuple[list[np.ndarray], list[
     det = obs.get(("objects", "detected")).cpu().numpy()
     if det.ndim == 1:
         raise ValueError("expected a batch of observations with shape [B]; add a batch dimension")
-    verts = obs.get(("objects", "vertices")).cpu().numpy().astype(np.float64)
-    poses = obs.get(("objects", "pose")).cpu().numpy().astype(np.float64)
-    nv = obs.get(("objects", "num_vertices")).cpu().numpy()
-    type_id = obs.get(("objects", "type_id")).cpu().numpy()
-    target_type = obs.get("target_type").cpu().numpy().reshape(-1)
-    world = transform_polygons(verts, poses)
-    out = []
-    for b in range(det.shape[0]):
-        idx = np.flatnonzero(det[b])
-        out.append(([world[b, k, : nv[b, k]] for k in idx], [bool(type_id[b, k] == target_type[b]) for k in idx]))
-    return out
+    objects = obs.get("objects")
+    return detected_world_polygons(
+        det,
+        objects.get("type_id").cpu().numpy(),
+        objects.get("pose").cpu().numpy(),
+        objects.get("vertices").cpu().numpy(),
+        objects.get("num_vertices").cpu().numpy(),
+        obs.get("target_type").cpu().numpy(),
+    )
 
 
 def observation_from_detections(
@@ -118,8 +116,6 @@ def observation_from_detections(
         >>> td["objects", "detected"].sum().item()
         1
     """
-    from occrl.envs.shelf_env import MAX_POLY_VERTICES, MAX_SLOTS, MAX_TYPE_ID, pad_polygon
-
     gp = _finite_vector("gripper_pose", gripper_pose, 3, "(x, y, theta)")
     if np.ndim(gripper_opening) != 0:
         raise ValueError(f"gripper_opening must be one number (m), got {gripper_opening!r}")

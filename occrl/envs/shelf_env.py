@@ -14,36 +14,21 @@ from torchrl.envs import EnvBase
 from occrl.envs import world_constants as C
 from occrl.envs.physics_settings import DEFAULT_PHYSICS, PhysicsSettings
 from occrl.envs.scene import STAGES, Scene
-from occrl.envs.visibility import detect, visible_fractions
-from occrl.envs.shelf_geometry import SHELF_WALLS
+from occrl.envs.observation import (
+    MAX_POLY_VERTICES,
+    MAX_SLOTS,
+    MAX_TYPE_ID,
+    GRIPPER_AND_TARGET_KEYS,
+    OBJECT_SLOT_KEYS,
+    detection_arrays,
+    pad_polygon,
+    world_visible_fractions,
+)
 from occrl.envs.world import ShelfWorld
 
 __all__ = ["ShelfEnv", "MAX_SLOTS", "MAX_POLY_VERTICES", "pad_polygon"]
 
 logger = logging.getLogger(__name__)
-
-MAX_SLOTS = C.MAX_OBJECTS
-MAX_POLY_VERTICES = C.MAX_VERTICES
-MAX_TYPE_ID = 1_000_000
-
-
-def pad_polygon(vertices: np.ndarray, size: int = MAX_POLY_VERTICES) -> np.ndarray:
-    """Pad a polygon to ``size`` vertices by repeating its first vertex (zero-length edges).
-
-    Examples:
-        >>> import numpy as np
-        >>> from occrl.envs.shelf_env import pad_polygon
-        >>> padded = pad_polygon(np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]))
-        >>> padded.shape, padded.dtype, padded[-1].tolist()
-        ((8, 2), dtype('float32'), [0.0, 0.0])
-    """
-    out = np.empty((size, 2), dtype=np.float32)
-    out[: len(vertices)] = vertices
-    out[len(vertices) :] = vertices[0]
-    return out
-
-
-_WALLS_PADDED = np.stack([pad_polygon(w).astype(float) for w in SHELF_WALLS])
 
 
 class ShelfEnv(EnvBase):
@@ -297,7 +282,7 @@ class ShelfEnv(EnvBase):
         """Free a world's resources before it is replaced."""
 
     def _visible_fractions(self, world, poses: np.ndarray) -> np.ndarray:
-        return visible_fractions(world.object_world_padded(poses), world.gripper_pose(), _WALLS_PADDED)
+        return world_visible_fractions(world, poses)
 
     def _extend_observation(self, out: TensorDictBase) -> TensorDictBase:
         """Add simulator-specific entries (e.g. camera images) to an observation."""
@@ -306,17 +291,6 @@ class ShelfEnv(EnvBase):
     # ------------------------------------------------------------------ perception
     def _observe(self, success: np.ndarray, dropped: np.ndarray) -> TensorDictBase:
         B, N, V = self.num_worlds, MAX_SLOTS, MAX_POLY_VERTICES
-        gripper_pose = np.zeros((B, 3), np.float32)
-        opening = np.zeros((B, 1), np.float32)
-        closed = np.zeros((B, 1), bool)
-        target_type = np.zeros((B, 1), np.int64)
-        target_vertices = np.zeros((B, V, 2), np.float32)
-        target_nv = np.zeros((B, 1), np.int64)
-        det = np.zeros((B, N), bool)
-        type_id = np.zeros((B, N), np.int64)
-        pose = np.zeros((B, N, 3), np.float32)
-        verts = np.zeros((B, N, V, 2), np.float32)
-        nverts = np.zeros((B, N), np.int64)
         present = np.zeros((B, N), bool)
         true_pose = np.zeros((B, N, 3), np.float32)
         true_verts = np.zeros((B, N, V, 2), np.float32)
@@ -326,45 +300,31 @@ class ShelfEnv(EnvBase):
         target_pose = np.zeros((B, 3), np.float32)
         target_held = np.zeros((B, 1), bool)
         penetration = np.zeros((B, 1), np.float32)
+        fractions = []
         for i, w in enumerate(self.worlds):
             n = w.num_objects
-            gp = w.gripper_pose()
             poses = w.object_poses()
             f = self._visible_fractions(w, poses)
-            d = detect(f)
-            gripper_pose[i] = gp
-            opening[i, 0] = w.opening
-            closed[i, 0] = w.closed
-            t = w.target_index
-            target_type[i, 0] = w.type_ids[t]
-            target_vertices[i] = w.padded_vertices[t]
-            target_nv[i, 0] = w.num_vertices[t]
+            fractions.append(f)
             present[i, :n] = True
             true_pose[i, :n] = poses
             true_verts[i, :n] = w.padded_vertices
             true_nv[i, :n] = w.num_vertices
             frac[i, :n] = f
-            det[i, :n] = d
-            verts[i, :n] = np.where(d[:, None, None], w.padded_vertices, 0.0)
-            nverts[i, :n] = np.where(d, w.num_vertices, 0)
-            type_id[i, :n] = np.where(d, w.type_ids, 0)
-            pose[i, :n] = np.where(d[:, None], poses, 0.0)
+            t = w.target_index
             target_slot[i, 0] = t
             target_pose[i] = poses[t]
             target_held[i, 0] = w.held == t
             penetration[i, 0] = w.penetration
+        a = detection_arrays(self.worlds, fractions)  # the one perception pipeline (occrl.envs.observation)
         t = torch.from_numpy
         batch = self.batch_size
+
         out = TensorDict(
             {
-                "gripper_pose": t(gripper_pose),
-                "gripper_opening": t(opening),
-                "gripper_closed": t(closed),
-                "target_type": t(target_type),
-                "target_vertices": t(target_vertices),
-                "target_num_vertices": t(target_nv),
+                **{k: t(a[k]) for k in GRIPPER_AND_TARGET_KEYS},
                 "objects": TensorDict(
-                    {"detected": t(det), "type_id": t(type_id), "pose": t(pose), "vertices": t(verts), "num_vertices": t(nverts)},
+                    {k: t(a[k]) for k in OBJECT_SLOT_KEYS},
                     batch_size=(*batch, N),
                 ),
                 "success": t(success.copy()).unsqueeze(-1),

@@ -16,8 +16,9 @@ from torchrl.envs.transforms import Transform
 
 from occrl.envs import world_constants as C
 from occrl.envs.geometry import point_in_convex_polygon, transform_polygons
+from occrl.envs.observation import crop_to_pixels, render_shelf_labels
 from occrl.envs.perception import detected_polygons
-from occrl.envs.render import DEFAULT_CANVAS, LABELS, Canvas, labels_to_pixels, render_labels
+from occrl.envs.render import DEFAULT_CANVAS, LABELS, Canvas
 from occrl.envs.robot_frame import DEFAULT_FORWARD_OFFSET, DEFAULT_SIZE, DEFAULT_WINDOW, robot_centric_pixels, robot_centric_points
 
 __all__ = ["OcclusionRender", "RobotCentricCrop", "HeatmapTarget"]
@@ -85,11 +86,9 @@ class OcclusionRender(_ObservationWriter):
 
     def _call(self, next_tensordict: TensorDictBase) -> TensorDictBase:
         flat = _flat(next_tensordict)
-        poses = flat.get("gripper_pose").cpu().numpy().astype(np.float64)
-        opening = flat.get("gripper_opening").cpu().numpy().reshape(-1)
-        labels = np.empty((flat.shape[0], *self.canvas.shape), dtype=np.uint8)
-        for b, (polys, is_target) in enumerate(detected_polygons(flat)):
-            labels[b] = render_labels(poses[b], float(opening[b]), polys, is_target, self.canvas, self.fov)
+        poses = flat.get("gripper_pose").cpu().numpy()
+        opening = flat.get("gripper_opening").cpu().numpy()
+        labels = render_shelf_labels(poses, opening, detected_polygons(flat), self.canvas, self.fov)
         out = torch.from_numpy(labels).reshape(*next_tensordict.shape, *self.canvas.shape)
         next_tensordict.set(self.out_keys[0], out)
         return next_tensordict
@@ -133,15 +132,15 @@ class RobotCentricCrop(_ObservationWriter):
 
     def crop_labels(self, labels: np.ndarray, gripper_poses: np.ndarray) -> np.ndarray:
         """(B, H, W) shelf-frame labels -> (B, size, size) robot-centric labels."""
-        pts = robot_centric_points(gripper_poses, self.window, self.size, self.forward_offset)
+        pts = robot_centric_points(np.asarray(gripper_poses, dtype=np.float64), self.window, self.size, self.forward_offset)
         return self.canvas.lookup(labels, pts)
 
     def _call(self, next_tensordict: TensorDictBase) -> TensorDictBase:
         labels_t = next_tensordict.get(self.in_keys[0])
         lead = labels_t.shape[:-2]
         labels = labels_t.reshape(-1, *labels_t.shape[-2:]).numpy()
-        poses = next_tensordict.get("gripper_pose").reshape(-1, 3).cpu().numpy().astype(np.float64)
-        pixels = labels_to_pixels(self.crop_labels(labels, poses))
+        poses = next_tensordict.get("gripper_pose").reshape(-1, 3).cpu().numpy()
+        pixels = crop_to_pixels(labels, poses, self.window, self.size, self.forward_offset, self.canvas)
         next_tensordict.set(self.out_keys[0], pixels.reshape(*lead, 3, self.size, self.size))
         if not self.keep_input:
             next_tensordict.exclude(self.in_keys[0], inplace=True)

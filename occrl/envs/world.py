@@ -166,6 +166,9 @@ class ShelfWorld:
         self.opening = C.GRIPPER_STROKE
         self.closed = False
         self.held: int | None = None
+        # an object the gripper camera cannot see while it is held (a recreated world whose held
+        # target was never seen: see occrl.planners.recreate); None in the execution worlds
+        self.unseen_while_held: int | None = None
         self.penetration = 0.0
         self.crossed_wall = False
         self._contact_buffer = pymunk.batch.Buffer()

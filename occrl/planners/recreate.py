@@ -45,6 +45,9 @@ class RecreatedState:
     closed: bool
     target_type: int
     target_vertices: np.ndarray
+    # the target is taken to be in hand although the camera does not see it (closed fingers that
+    # stopped apart with no detected object between them): imagined worlds keep it unseen while held
+    target_unseen_in_hand: bool = False
 
     @property
     def target_detected(self) -> bool:
@@ -116,7 +119,7 @@ def _with_unseen_held_target(state: RecreatedState) -> RecreatedState:
     position = transform_points(np.array([[0.0, y]]), state.gripper_pose)[0]
     pose = (float(position[0]), float(position[1]), float(state.gripper_pose[2] + best))
     held = SceneObject(state.target_type, state.target_vertices, pose, True)
-    return replace(state, objects=state.objects + (held,))
+    return replace(state, objects=state.objects + (held,), target_unseen_in_hand=True)
 
 
 def target_fits(state: RecreatedState, pose) -> bool:
@@ -148,7 +151,8 @@ def with_target(state: RecreatedState, pose) -> RecreatedState:
 def make_world(state: RecreatedState) -> ShelfWorld:
     """A nominal (noise-free) pymunk world of a recreated state, gripper and grasp included.
     It integrates as the execution world does (``DEFAULT_PHYSICS``) but skips the validity
-    measure, which no planner reads.
+    measure, which no planner reads. A target taken to be in hand unseen stays unseen by the
+    world's camera while it is held (as the real camera did not see it there).
 
     Examples:
         >>> import numpy as np
@@ -164,4 +168,6 @@ def make_world(state: RecreatedState) -> ShelfWorld:
     if state.closed:
         held, _ = grasp_candidate(state.gripper_pose, state.opening + 2e-3, state.polygons())
     world.set_gripper_state(state.opening, state.closed, held)
+    if state.target_unseen_in_hand:
+        world.unseen_while_held = world.target_index
     return world

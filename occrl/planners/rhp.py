@@ -22,10 +22,7 @@ import torch
 from tensordict import TensorDict
 
 from occrl.envs import world_constants as C
-from occrl.envs.render import DEFAULT_CANVAS, labels_to_pixels, render_labels
-from occrl.envs.robot_frame import robot_centric_points
-from occrl.envs.visibility import detect, visible_fractions
-from occrl.envs.shelf_geometry import SHELF_WALLS
+from occrl.envs.observation import world_pixels
 from occrl.envs.world import ShelfWorld
 from occrl.modules.occnet import OccNet
 from occrl.planners.recreate import RecreatedState, make_world
@@ -36,6 +33,9 @@ __all__ = ["RHPResult", "rhp_batched", "rhp_sequential", "render_pixels", "Netwo
 def render_pixels(worlds: Sequence[ShelfWorld]) -> torch.Tensor:
     """The network input each world's camera would give: (N, 3, 64, 64) in [0, 1].
 
+    The env's own observation pipeline (:func:`occrl.envs.observation.world_pixels`): a world
+    recreated from an observation renders the image of that observation, pixel for pixel.
+
     Examples:
         >>> import numpy as np
         >>> from occrl.planners import RecreatedState, make_world, render_pixels, with_target
@@ -45,17 +45,7 @@ def render_pixels(worlds: Sequence[ShelfWorld]) -> torch.Tensor:
         >>> pixels.shape, float(pixels.min()) >= 0.0, float(pixels.max()) <= 1.0
         (torch.Size([1, 3, 64, 64]), True, True)
     """
-    labels = []
-    poses = []
-    for w in worlds:
-        polys = w.object_world_polygons()
-        gp = w.gripper_pose()
-        seen = detect(visible_fractions(polys, gp, SHELF_WALLS)) if polys else np.zeros(0, bool)
-        labels.append(
-            render_labels(gp, w.opening, [p for p, s in zip(polys, seen) if s], [i == w.target_index for i, s in enumerate(seen) if s])
-        )
-        poses.append(gp)
-    return labels_to_pixels(DEFAULT_CANVAS.lookup(np.stack(labels), robot_centric_points(np.stack(poses))))
+    return world_pixels(worlds)
 
 
 class NetworkStepper:

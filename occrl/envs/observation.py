@@ -1,0 +1,252 @@
+"""One observation pipeline: world -> detections -> the network's robot-centric image.
+
+Every image the network sees goes through these functions: the env's observation
+(:class:`~occrl.envs.ShelfEnv` writes :func:`detection_arrays`, the transforms
+:class:`~occrl.envs.OcclusionRender` and :class:`~occrl.envs.RobotCentricCrop` apply
+:func:`render_shelf_labels` and :func:`crop_to_pixels`) and the worlds the planners imagine
+(:func:`world_pixels`). So an imagined world identical to the env's world gives the env's image
+pixel for pixel, including the float32 rounding of the observation's poses and shapes.
+
+Steps:
+
+1. **Visibility** (:func:`world_visible_fractions`): the fraction of each object's angular extent
+   the gripper camera sees, objects and shelf walls occluding; an object the world marks as
+   unseen while held (``world.unseen_while_held``, set only for recreated worlds) reads 0 while
+   the gripper holds it.
+2. **Detections** (:func:`detection_arrays`): objects more than 50 % visible fill their slot with
+   type, pose and shape (float32, as the observation stores them); the gripper and the target's
+   type and shape are always known.
+3. **Render** (:func:`render_shelf_labels`): the abstract occlusion-aware image of the detected
+   objects as a shelf-frame label map.
+4. **Crop** (:func:`crop_to_pixels`): the window that moves with the gripper, coloured.
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+import torch
+
+from occrl.envs import world_constants as C
+from occrl.envs.geometry import transform_polygons
+from occrl.envs.render import DEFAULT_CANVAS, Canvas, labels_to_pixels, render_labels
+from occrl.envs.robot_frame import DEFAULT_FORWARD_OFFSET, DEFAULT_SIZE, DEFAULT_WINDOW, robot_centric_points
+from occrl.envs.shelf_geometry import SHELF_WALLS
+from occrl.envs.visibility import detect, visible_fractions
+
+__all__ = [
+    "MAX_SLOTS",
+    "MAX_POLY_VERTICES",
+    "MAX_TYPE_ID",
+    "WALLS_PADDED",
+    "GRIPPER_AND_TARGET_KEYS",
+    "OBJECT_SLOT_KEYS",
+    "pad_polygon",
+    "world_visible_fractions",
+    "detection_arrays",
+    "detected_world_polygons",
+    "render_shelf_labels",
+    "crop_to_pixels",
+    "world_pixels",
+]
+
+MAX_SLOTS = C.MAX_OBJECTS
+MAX_POLY_VERTICES = C.MAX_VERTICES
+MAX_TYPE_ID = 1_000_000
+# the observation's perception keys, as detection_arrays names them: top level, and per object slot
+# (under "objects")
+GRIPPER_AND_TARGET_KEYS = ("gripper_pose", "gripper_opening", "gripper_closed", "target_type", "target_vertices", "target_num_vertices")
+OBJECT_SLOT_KEYS = ("detected", "type_id", "pose", "vertices", "num_vertices")
+
+
+def pad_polygon(vertices: np.ndarray, size: int = MAX_POLY_VERTICES) -> np.ndarray:
+    """Pad a polygon to ``size`` vertices by repeating its first vertex (zero-length edges).
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.observation import pad_polygon
+        >>> padded = pad_polygon(np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]))
+        >>> padded.shape, padded.dtype, padded[-1].tolist()
+        ((8, 2), dtype('float32'), [0.0, 0.0])
+    """
+    out = np.empty((size, 2), dtype=np.float32)
+    out[: len(vertices)] = vertices
+    out[len(vertices) :] = vertices[0]
+    return out
+
+
+# the shelf walls as occluders, padded like the objects (float32-rounded, as always measured)
+WALLS_PADDED = np.stack([pad_polygon(w).astype(float) for w in SHELF_WALLS])
+
+
+def world_visible_fractions(world, poses: np.ndarray | None = None) -> np.ndarray:
+    """(n,) visible fraction of each object of a 2D world from its gripper camera.
+
+    ``world`` offers ``object_world_padded(poses)``, ``gripper_pose()``, ``held`` and optionally
+    ``unseen_while_held`` (an object index, or None): while that object is held the camera
+    neither sees it (it reads 0) nor is hidden by it (its pose in hand is only a guess).
+
+    Examples:
+        >>> from occrl.envs import Scene, ShelfWorld
+        >>> from occrl.envs.observation import world_visible_fractions
+        >>> world = ShelfWorld(Scene.sample(stage=1, seed=0))
+        >>> fractions = world_visible_fractions(world)
+        >>> fractions.shape == (world.num_objects,), bool(((fractions >= 0) & (fractions <= 1)).all())
+        (True, True)
+    """
+    padded = world.object_world_padded(poses)
+    if len(padded) == 0:
+        return np.zeros(0)
+    unseen = getattr(world, "unseen_while_held", None)
+    if unseen is None or world.held != unseen:
+        return visible_fractions(padded, world.gripper_pose(), WALLS_PADDED)
+    # the camera neither sees the object in hand nor is hidden by it: its pose is only a guess
+    others = np.delete(np.arange(len(padded)), unseen)
+    fractions = np.zeros(len(padded))
+    if len(others):
+        fractions[others] = visible_fractions(padded[others], world.gripper_pose(), WALLS_PADDED)
+    return fractions
+
+
+def detection_arrays(worlds: Sequence, fractions: Sequence[np.ndarray]) -> dict[str, np.ndarray]:
+    """The perception part of an observation of each world, as the observation stores it.
+
+    Args:
+        worlds: B worlds offering ``gripper_pose()``, ``object_poses()``, ``opening``, ``closed``,
+            ``type_ids``, ``padded_vertices``, ``num_vertices``, ``target_index`` (-1: no target).
+        fractions: each world's visible fractions (:func:`world_visible_fractions`, or a camera's).
+
+    Returns:
+        ``gripper_pose`` (B, 3), ``gripper_opening`` (B, 1), ``gripper_closed`` (B, 1),
+        ``target_type`` (B, 1), ``target_vertices`` (B, V, 2), ``target_num_vertices`` (B, 1), and
+        per slot ``detected`` (B, N), ``type_id`` (B, N), ``pose`` (B, N, 3), ``vertices``
+        (B, N, V, 2), ``num_vertices`` (B, N); floats are float32, undetected slots zero.
+
+    Examples:
+        >>> from occrl.envs import Scene, ShelfWorld
+        >>> from occrl.envs.observation import detection_arrays, world_visible_fractions
+        >>> world = ShelfWorld(Scene.sample(stage=1, seed=0))
+        >>> arrays = detection_arrays([world], [world_visible_fractions(world)])
+        >>> arrays["pose"].shape, arrays["pose"].dtype, arrays["detected"].dtype
+        ((1, 10, 3), dtype('float32'), dtype('bool'))
+    """
+    B, N, V = len(worlds), MAX_SLOTS, MAX_POLY_VERTICES
+    out = {
+        "gripper_pose": np.zeros((B, 3), np.float32),
+        "gripper_opening": np.zeros((B, 1), np.float32),
+        "gripper_closed": np.zeros((B, 1), bool),
+        "target_type": np.zeros((B, 1), np.int64),
+        "target_vertices": np.zeros((B, V, 2), np.float32),
+        "target_num_vertices": np.zeros((B, 1), np.int64),
+        "detected": np.zeros((B, N), bool),
+        "type_id": np.zeros((B, N), np.int64),
+        "pose": np.zeros((B, N, 3), np.float32),
+        "vertices": np.zeros((B, N, V, 2), np.float32),
+        "num_vertices": np.zeros((B, N), np.int64),
+    }
+    for i, (w, f) in enumerate(zip(worlds, fractions)):
+        n = w.num_objects
+        d = detect(np.asarray(f))
+        out["gripper_pose"][i] = w.gripper_pose()
+        out["gripper_opening"][i, 0] = w.opening
+        out["gripper_closed"][i, 0] = w.closed
+        t = w.target_index
+        if t >= 0:  # a recreated world may hold no target: type 0 then, which no object has
+            out["target_type"][i, 0] = w.type_ids[t]
+            out["target_vertices"][i] = w.padded_vertices[t]
+            out["target_num_vertices"][i, 0] = w.num_vertices[t]
+        out["detected"][i, :n] = d
+        out["vertices"][i, :n] = np.where(d[:, None, None], w.padded_vertices, 0.0)
+        out["num_vertices"][i, :n] = np.where(d, w.num_vertices, 0)
+        out["type_id"][i, :n] = np.where(d, w.type_ids, 0)
+        out["pose"][i, :n] = np.where(d[:, None], w.object_poses(), 0.0)
+    return out
+
+
+def detected_world_polygons(
+    detected: np.ndarray, type_id: np.ndarray, poses: np.ndarray, vertices: np.ndarray, num_vertices: np.ndarray, target_type: np.ndarray
+) -> list[tuple[list[np.ndarray], list[bool]]]:
+    """Per world: the detected objects' shelf-frame polygons (float64 from the stored values) and
+    which of them is the target (its type id equals ``target_type``). Shapes as
+    :func:`detection_arrays` returns them; ``target_type`` (B,) or (B, 1).
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.observation import detected_world_polygons
+        >>> box = np.array([[[[-0.02, -0.02], [0.02, -0.02], [0.02, 0.02], [-0.02, 0.02]]]])
+        >>> (polygons, is_target), = detected_world_polygons(np.array([[True]]), np.array([[3]]),
+        ...     np.array([[[0.1, 0.2, 0.0]]]), box, np.array([[4]]), np.array([3]))
+        >>> polygons[0][0].round(3).tolist(), is_target
+        ([0.08, 0.18], [True])
+    """
+    world = transform_polygons(np.asarray(vertices).astype(np.float64), np.asarray(poses).astype(np.float64))
+    target_type = np.asarray(target_type).reshape(-1)
+    out = []
+    for b in range(detected.shape[0]):
+        idx = np.flatnonzero(detected[b])
+        out.append(([world[b, k, : num_vertices[b, k]] for k in idx], [bool(type_id[b, k] == target_type[b]) for k in idx]))
+    return out
+
+
+def render_shelf_labels(
+    gripper_poses: np.ndarray,
+    openings: np.ndarray,
+    detections: Sequence[tuple[list[np.ndarray], list[bool]]],
+    canvas: Canvas = DEFAULT_CANVAS,
+    fov: float = C.CAMERA_FOV,
+) -> np.ndarray:
+    """(B, H, W) uint8 shelf-frame label maps of the detected objects
+    (:func:`detected_world_polygons`) seen from float32 gripper poses (B, 3) and openings (B,).
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.observation import render_shelf_labels
+        >>> render_shelf_labels(np.array([[0.0, -0.1, 0.0]], np.float32), np.array([0.085], np.float32), [([], [])]).shape
+        (1, 244, 250)
+    """
+    poses = np.asarray(gripper_poses).astype(np.float64)
+    openings = np.asarray(openings).reshape(-1)
+    labels = np.empty((len(poses), *canvas.shape), dtype=np.uint8)
+    for b, (polys, is_target) in enumerate(detections):
+        labels[b] = render_labels(poses[b], float(openings[b]), polys, is_target, canvas, fov)
+    return labels
+
+
+def crop_to_pixels(
+    labels: np.ndarray,
+    gripper_poses: np.ndarray,
+    window: float = DEFAULT_WINDOW,
+    size: int = DEFAULT_SIZE,
+    forward_offset: float = DEFAULT_FORWARD_OFFSET,
+    canvas: Canvas = DEFAULT_CANVAS,
+) -> torch.Tensor:
+    """(B, H, W) shelf-frame labels -> (B, 3, size, size) robot-centric colours in [0, 1].
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.observation import crop_to_pixels, render_shelf_labels
+        >>> poses, openings = np.array([[0.0, -0.1, 0.0]], np.float32), np.array([0.085], np.float32)
+        >>> crop_to_pixels(render_shelf_labels(poses, openings, [([], [])]), poses).shape
+        torch.Size([1, 3, 64, 64])
+    """
+    points = robot_centric_points(np.asarray(gripper_poses).astype(np.float64), window, size, forward_offset)
+    return labels_to_pixels(canvas.lookup(labels, points))
+
+
+def world_pixels(worlds: Sequence) -> torch.Tensor:
+    """The network input each 2D world's gripper camera gives, (B, 3, 64, 64) in [0, 1]: the
+    env's observation pipeline (default window) applied to the worlds, without an env.
+
+    Examples:
+        >>> from occrl.envs import make_env
+        >>> from occrl.envs.observation import world_pixels
+        >>> env = make_env(batch_size=2, stage=2, seed=0, heatmap_target=False)
+        >>> td = env.reset()
+        >>> bool((world_pixels(env.base_env.worlds) == td["pixels"]).all())
+        True
+    """
+    a = detection_arrays(worlds, [world_visible_fractions(w) for w in worlds])
+    polygons = detected_world_polygons(a["detected"], a["type_id"], a["pose"], a["vertices"], a["num_vertices"], a["target_type"])
+    labels = render_shelf_labels(a["gripper_pose"], a["gripper_opening"], polygons)
+    return crop_to_pixels(labels, a["gripper_pose"])
