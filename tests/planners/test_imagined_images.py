@@ -73,3 +73,31 @@ def test_a_target_unseen_in_hand_is_transparent_to_the_imagined_camera():
     assert fractions[world.target_index] == 0.0 and fractions[0] > 0.5  # the object behind stays seen
     world.unseen_while_held = None  # as an ordinary object the guessed target hides what is behind it
     assert world_visible_fractions(world)[0] < fractions[0]
+
+
+def test_network_stepper_equals_the_tensordict_modules_bit_for_bit():
+    from tensordict import TensorDict
+
+    from occrl.modules import make_occnet
+    from occrl.planners.rhp import NetworkStepper
+
+    torch.manual_seed(0)
+    net = make_occnet("paper").eval()
+    for p in net.parameters():  # away from the initialisation, as a trained net is
+        p.data.add_(0.05 * torch.randn_like(p))
+    stepper = NetworkStepper(net)
+    for n in (1, 4, 12):
+        pixels = torch.rand(n, 3, 64, 64)
+        h, c = torch.randn(n, 1, 128), torch.randn(n, 1, 128)
+        out, h_next, c_next = stepper.step(pixels, h, c)
+        td = TensorDict(
+            {"pixels": pixels, "recurrent_state_h": h, "recurrent_state_c": c, "is_init": torch.zeros(n, 1, dtype=torch.bool)}, [n]
+        )
+        with torch.no_grad():
+            td = net.actor.module[0](net.trunk(td))
+            value = net.critic(td.select("belief").copy()).get("state_value").squeeze(-1)
+        for key in ("belief", "loc", "scale"):
+            assert torch.equal(out[key], td.get(key)), key
+        assert torch.equal(h_next, td.get(("next", "recurrent_state_h")))
+        assert torch.equal(c_next, td.get(("next", "recurrent_state_c")))
+        assert torch.equal(stepper.value(out), value)
