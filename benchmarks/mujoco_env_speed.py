@@ -22,8 +22,8 @@ import numpy as np
 import torch
 
 from occrl.envs import MujocoShelfEnv, Scene
-from occrl.envs.mujoco_camera import CameraConfig, gl_available
-from occrl.envs.mujoco_world import MujocoWorld
+from occrl.envs.mujoco3d.camera import CameraConfig, gl_available
+from occrl.envs.mujoco3d.world import MujocoWorld
 
 
 def _worlds(stage: int, camera: CameraConfig, visibility: str, n: int = 4) -> list[MujocoWorld]:

@@ -26,8 +26,8 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import numpy as np
 
 from occrl.envs import Scene, ShelfWorld
-from occrl.envs.physics_settings import DEFAULT_PHYSICS, LEGACY_PHYSICS, PYMUNK_COLLISION_BIAS, PhysicsSettings
-from occrl.envs.physics_validity import adversarial_pushing, pymunk_world_factory
+from occrl.envs.pymunk2d.physics_settings import DEFAULT_PHYSICS, LEGACY_PHYSICS, PYMUNK_COLLISION_BIAS, PhysicsSettings
+from occrl.envs.pymunk2d.physics_validity import adversarial_pushing, pymunk_world_factory
 
 # From occrl 0.1.0's settings towards the default, one change at a time, and the neighbours of
 # the default in step count.
@@ -98,7 +98,7 @@ def main() -> None:
             flush=True,
         )
     if args.mujoco:
-        from occrl.envs.mujoco_world import MujocoWorld
+        from occrl.envs.mujoco3d.world import MujocoWorld
 
         def make(scene, noise, seed):
             return MujocoWorld(scene, noise=noise, rng=np.random.default_rng(seed))

@@ -126,7 +126,7 @@ def floor(net, obs) -> None:
     """How close a 4x4 decision is to the floor of its work: the roll-outs' physics steps
     (``ShelfWorld.step``) plus the batched network calls (``NetworkStepper``), timed inside
     unprofiled decisions; everything else (rendering, world building, glue) is above the floor."""
-    from occrl.envs.world import ShelfWorld
+    from occrl.envs.pymunk2d.world import ShelfWorld
     from occrl.planners.rhp import NetworkStepper
 
     spent = {"physics": 0.0, "network": 0.0}

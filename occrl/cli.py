@@ -24,7 +24,7 @@ __all__ = ["main"]
 
 def _gl_available() -> bool:
     """MuJoCo camera images need an OpenGL backend (EGL headless); without one the demo still runs."""
-    from occrl.envs.mujoco_camera import gl_available
+    from occrl.envs.mujoco3d.camera import gl_available
 
     ok, why = gl_available()
     if not ok:

@@ -14,7 +14,7 @@ import numpy as np
 from occrl.envs import world_constants as C
 from occrl.envs.geometry import polygons_overlap, transform_points
 from occrl.envs.shelf_geometry import SHELF_WALLS, gripper_polygons, inverse_pose
-from occrl.envs.world import ShelfWorld
+from occrl.envs.pymunk2d.world import ShelfWorld
 
 from occrl.baselines.motion import between_fingers
 
@@ -143,7 +143,7 @@ def grasp_poses(world: ShelfWorld, index: int, prefer_angle: float = 0.0, limit:
         >>> from occrl.baselines.goals import grasp_poses
         >>> from occrl.envs import Scene, ShelfWorld
         >>> from occrl.envs import world_constants as C
-        >>> from occrl.envs.world import grasp_candidate
+        >>> from occrl.envs.pymunk2d.world import grasp_candidate
         >>> box = [[-0.02, -0.02], [0.02, -0.02], [0.02, 0.02], [-0.02, 0.02]]
         >>> world = ShelfWorld(Scene.from_objects([{"vertices": box, "pose": (0.0, 0.15, 0.0), "is_target": True}]))
         >>> poses = grasp_poses(world, 0)

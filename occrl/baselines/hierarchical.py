@@ -42,7 +42,7 @@ re-planned from the current observation once the previous plan was executed open
 planned action per env step, from a queue):
 
 * Retrieve: (1) *reach*: gripper open, goal region = the target alone between the fingers with
-  3 mm margins (the grasp rule of :func:`~occrl.envs.world.grasp_candidate`), 2 mm clear of the
+  3 mm margins (the grasp rule of :func:`~occrl.envs.pymunk2d.world.grasp_candidate`), 2 mm clear of the
   palm (not being pushed), the arm turned at most 50 degrees; (2) *extract*: gripper closed, goal
   region = target held and its centroid ``extract_margin`` past the retrieval line.
 * Rearrange: (1) *reach* the object (same region); (2) *place*: gripper closed, goal region =
@@ -75,7 +75,7 @@ from occrl.envs.geometry import point_in_convex_polygon, polygons_overlap, trans
 from occrl.envs.perception import OBSERVATION_KEYS
 from occrl.envs.scene import SceneObject
 from occrl.envs.shelf_geometry import gripper_polygons
-from occrl.envs.world import ShelfWorld
+from occrl.envs.pymunk2d.world import ShelfWorld
 from occrl.planners.recreate import RecreatedState, make_world
 
 from occrl.baselines.hiding import HidingRegion

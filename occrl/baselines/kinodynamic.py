@@ -22,7 +22,8 @@ OMPL formulation (:class:`SimControlProblem`):
   region, else a heuristic distance; ``sampleGoal`` gives a heuristic state for RRT's goal bias
   (reach: a grasp pose from :func:`grasp_poses`, kept relative to the object; extract/place: the
   start pose moved by what the object has to move).
-* Planner: ``oc.RRT`` (default; goal bias 0.25) or ``oc.KPIECE1`` (projection: the SE2 part's
+* Planner: set up as OMPL's demos do (``oc.SimpleSetup`` on the space information: start state,
+  goal region, planner, ``solve``), ``oc.RRT`` (default; goal bias 0.25) or ``oc.KPIECE1`` (projection: the SE2 part's
   default, x and y), stopped by a timed termination condition and restarted with a fresh tree
   every ``restart_seconds`` (0.75 s; run times are heavy-tailed) until the query's budget
   ``plan_seconds`` is spent. OMPL is re-seeded for every attempt, so an attempt is a function of
@@ -51,7 +52,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from occrl.envs import world_constants as C
-from occrl.envs.world import ShelfWorld
+from occrl.envs.pymunk2d.world import ShelfWorld
 
 try:  # OMPL 2.x (nanobind bindings)
     from ompl import base as ob
@@ -330,32 +331,30 @@ class SimControlProblem:
             attempts += 1
             ompl_seed(self.seed * 7919 + attempts)  # each attempt a function of (seed, attempt)
             self.rng = np.random.default_rng([self.seed, attempts])
-            pdef = ob.ProblemDefinition(self.si)
-            pdef.addStartState(self.start_state())
-            pdef.setGoal(self._make_goal())
+            # the OMPL recipe: space information, start, goal region, planner, solve
+            setup = oc.SimpleSetup(self.si)
+            setup.addStartState(self.start_state())
+            setup.setGoal(self._make_goal())
             if self.planner_name == "rrt":
                 planner = oc.RRT(self.si)
                 planner.setGoalBias(self.goal_bias)
             else:
                 planner = oc.KPIECE1(self.si)
-            planner.setProblemDefinition(pdef)
-            planner.setup()
+            setup.setPlanner(planner)
             budget = max(min(remaining, self.restart_seconds or remaining), 1e-6)
-            status_text = planner.solve(ob.timedPlannerTerminationCondition(budget)).asString()
-            if pdef.hasExactSolution():
+            status_text = setup.solve(ob.timedPlannerTerminationCondition(budget)).asString()
+            if setup.haveExactSolutionPath():
                 break
-            pdef.clearSolutionPaths()
-            planner.clear()
+            setup.clear()
         self.attempts = attempts
-        if not pdef.hasExactSolution():
+        if not setup.haveExactSolutionPath():
             self.world.restore(start.snap)
             status_text = f"{status_text} ({attempts} attempts)"
             return PlanResult(name, False, [], status_text, time.perf_counter() - t0, self.propagations, 0, None)
-        path = pdef.getSolutionPath()
+        path = setup.getSolutionPath()
         indices = [self.index_of(st) for st in path.getStates()]
         controls = [np.array([path.getControl(i)[k] for k in range(C.ACTION_DIM)]) for i in range(path.getControlCount())]
-        pdef.clearSolutionPaths()
-        planner.clear()
+        setup.clear()
         self.world.restore(start.snap)
         raw = len(controls)
         if shortcut:

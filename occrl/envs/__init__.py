@@ -1,13 +1,13 @@
 """Shelf worlds, perception and TorchRL environments."""
 
-from occrl.envs.physics_settings import DEFAULT_PHYSICS, LEGACY_PHYSICS, PhysicsSettings
+from occrl.envs.pymunk2d.physics_settings import DEFAULT_PHYSICS, LEGACY_PHYSICS, PhysicsSettings
 from occrl.envs.perception import detected_polygons, observation_from_detections
 from occrl.envs.pipeline import make_env, observation_transforms
 from occrl.envs.scene import STAGES, Scene, SceneObject
 from occrl.envs.shelf_env import ShelfEnv
 from occrl.envs.transforms import HeatmapTarget, OcclusionRender, RobotCentricCrop
 from occrl.envs.task import StepOutcome
-from occrl.envs.world import ShelfWorld
+from occrl.envs.pymunk2d.world import ShelfWorld
 
 __all__ = [
     "Scene",
@@ -33,7 +33,7 @@ __all__ = [
 def __getattr__(name: str):
     # MuJoCo is an optional extra: import its env only when it is asked for.
     if name == "MujocoShelfEnv":
-        from occrl.envs.mujoco_env import MujocoShelfEnv
+        from occrl.envs.mujoco3d.env import MujocoShelfEnv
 
         return MujocoShelfEnv
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

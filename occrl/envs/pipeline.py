@@ -92,7 +92,7 @@ def make_env(
     if world == "pymunk":
         env_cls = ShelfEnv
     elif world == "mujoco":
-        from occrl.envs.mujoco_env import MujocoShelfEnv  # optional extra: imported only when asked for
+        from occrl.envs.mujoco3d.env import MujocoShelfEnv  # optional extra: imported only when asked for
 
         env_cls = MujocoShelfEnv
     else:

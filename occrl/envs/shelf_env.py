@@ -12,7 +12,7 @@ from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import EnvBase
 
 from occrl.envs import world_constants as C
-from occrl.envs.physics_settings import DEFAULT_PHYSICS, PhysicsSettings
+from occrl.envs.pymunk2d.physics_settings import DEFAULT_PHYSICS, PhysicsSettings
 from occrl.envs.scene import STAGES, Scene
 from occrl.envs.observation import (
     MAX_POLY_VERTICES,
@@ -24,7 +24,7 @@ from occrl.envs.observation import (
     pad_polygon,
     world_visible_fractions,
 )
-from occrl.envs.world import ShelfWorld
+from occrl.envs.pymunk2d.world import ShelfWorld
 
 __all__ = ["ShelfEnv", "MAX_SLOTS", "MAX_POLY_VERTICES", "pad_polygon"]
 

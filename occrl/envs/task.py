@@ -74,7 +74,7 @@ def task_outcome(poses: np.ndarray, held: int | None, target_index: int, fallen:
 @runtime_checkable
 class World(Protocol):
     """What a world offers :class:`~occrl.envs.ShelfEnv` and the task: :class:`~occrl.envs.ShelfWorld`
-    (pymunk) and :class:`~occrl.envs.mujoco_world.MujocoWorld` (MuJoCo) both do.
+    (pymunk) and :class:`~occrl.envs.mujoco3d.world.MujocoWorld` (MuJoCo) both do.
 
     Examples:
         >>> from occrl.envs import Scene, ShelfWorld

@@ -39,7 +39,7 @@ FINGER_LENGTH = 0.045
 FOREARM_WIDTH = 0.07
 FOREARM_LENGTH = 0.25
 # force limits of the MuJoCo hand's servos; the pymunk gripper's mass and drive are integration
-# settings (occrl.envs.physics_settings)
+# settings (occrl.envs.pymunk2d.physics_settings)
 GRIPPER_MAX_FORCE = 20.0  # N
 GRIPPER_MAX_TORQUE = 2.0  # N m
 
@@ -57,7 +57,7 @@ ACTION_DIM = 4  # forward, lateral, rotation (gripper frame), gripper (> 0 close
 MAX_FORWARD = 0.05
 MAX_LATERAL = 0.05
 MAX_ROTATION = math.radians(15.0)
-ACTION_DURATION = 0.5  # s of simulated time per action (steps: occrl.envs.physics_settings)
+ACTION_DURATION = 0.5  # s of simulated time per action (steps: occrl.envs.pymunk2d.physics_settings)
 
 # --- task --------------------------------------------------------------------------------------
 STEP_REWARD = -1.0

@@ -25,7 +25,7 @@ from tensordict.nn import TensorDictModuleBase
 from occrl.envs import world_constants as C
 from occrl.envs.perception import OBSERVATION_KEYS
 from occrl.modules.occnet import OccNet, require_recurrent_state
-from occrl.planners.recreate import recreate
+from occrl.planners.recreate import WorldPool, recreate
 from occrl.planners.rhp import RHPResult, rhp_batched, rhp_sequential
 from occrl.planners.states import Root, generate_states
 
@@ -141,6 +141,7 @@ class HybridPlanner(TensorDictModuleBase):
         self.batched = batched
         self.rollout_min_scale = float(rollout_min_scale)
         self.generator = torch.Generator().manual_seed(int(seed))
+        self.pool = WorldPool()  # roll-out worlds kept between decisions (batched RHP)
         self.decisions: list[Decision] = []
         self.in_keys = ["pixels", "is_init", "recurrent_state_h", "recurrent_state_c", *OBSERVATION_KEYS]
         self.out_keys = ["action", ("next", "recurrent_state_h"), ("next", "recurrent_state_c"), "heatmap"]
@@ -179,8 +180,11 @@ class HybridPlanner(TensorDictModuleBase):
             roots = [max(roots, key=lambda r: r.weight)]
             roots[0].weight = 1.0
         noise = torch.randn(len(roots), self.m, self.h, C.ACTION_DIM, generator=self.generator)
-        rhp = rhp_batched if self.batched else rhp_sequential
-        result = rhp(self.net, [r.state for r in roots], hidden, noise, self.gamma, self.rollout_min_scale)
+        states = [r.state for r in roots]
+        if self.batched:
+            result = rhp_batched(self.net, states, hidden, noise, self.gamma, self.rollout_min_scale, pool=self.pool)
+        else:
+            result = rhp_sequential(self.net, states, hidden, noise, self.gamma, self.rollout_min_scale)
         chosen = select_root(np.array([r.weight for r in roots]), result.value)
         decision = Decision(roots, result, chosen, result.action[chosen], time.perf_counter() - t0, heatmap)
         self.decisions.append(decision)

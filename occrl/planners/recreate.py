@@ -8,18 +8,19 @@ detections enter (see :func:`occrl.envs.observation_from_detections`).
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import Sequence
 
 import numpy as np
 from tensordict import TensorDictBase
 
 from occrl.envs import world_constants as C
 from occrl.envs.geometry import polygons_overlap, transform_points
-from occrl.envs.physics_settings import DEFAULT_PHYSICS
+from occrl.envs.pymunk2d.physics_settings import DEFAULT_PHYSICS
 from occrl.envs.scene import Scene, SceneObject
 from occrl.envs.shelf_geometry import gripper_polygons
-from occrl.envs.world import ShelfWorld, grasp_candidate
+from occrl.envs.pymunk2d.world import ShelfWorld, grasp_candidate
 
-__all__ = ["RecreatedState", "recreate", "with_target", "make_world"]
+__all__ = ["RecreatedState", "recreate", "with_target", "make_world", "WorldPool"]
 
 # the planners' imagined worlds: the execution physics, without the validity measure
 PLANNING_PHYSICS = replace(DEFAULT_PHYSICS, measure_validity=False)
@@ -164,10 +165,81 @@ def make_world(state: RecreatedState) -> ShelfWorld:
         ([0.0, -0.1, 0.0], [[-0.1, 0.2, 0.0]])
     """
     world = ShelfWorld(Scene.unchecked(state.objects, state.gripper_pose), physics=PLANNING_PHYSICS)
+    _set_gripper(world, state)
+    return world
+
+
+def _set_gripper(world: ShelfWorld, state: RecreatedState) -> None:
     held = None
     if state.closed:
         held, _ = grasp_candidate(state.gripper_pose, state.opening + 2e-3, state.polygons())
     world.set_gripper_state(state.opening, state.closed, held)
-    if state.target_unseen_in_hand:
-        world.unseen_while_held = world.target_index
-    return world
+    world.unseen_while_held = world.target_index if state.target_unseen_in_hand else None
+
+
+def _object_set(state: RecreatedState) -> tuple:
+    """What a world is built from besides poses: each object's type, shape and target flag."""
+    return (PLANNING_PHYSICS,) + tuple((o.type_id, np.asarray(o.vertices, float).tobytes(), o.is_target) for o in state.objects)
+
+
+class WorldPool:
+    """Imagined worlds kept between uses, so that the planner does not rebuild pymunk worlds.
+
+    :meth:`take` hands out one world per state: a kept world built for the same objects (types,
+    shapes, which is the target) is set to the state (``ShelfWorld.set_poses`` and the gripper),
+    otherwise a new one is built with :func:`make_world`. Either way the world steps bit for bit
+    as ``make_world(state)`` would (tested). Each call takes back every world the previous call
+    handed out, so a caller holds one call's worlds at a time; at most ``max_kept`` idle worlds
+    are kept (the least recently built object sets go first).
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.planners import RecreatedState, WorldPool, with_target
+        >>> box = np.array([[-0.02, -0.02], [0.02, -0.02], [0.02, 0.02], [-0.02, 0.02]])
+        >>> state = RecreatedState((), (0.0, -0.1, 0.0), 0.085, False, target_type=1, target_vertices=box)
+        >>> pool = WorldPool()
+        >>> first = pool.take([with_target(state, (-0.1, 0.2, 0.0))] * 2)
+        >>> again = pool.take([with_target(state, (0.1, 0.2, 0.0))])  # the same objects elsewhere: kept world reused
+        >>> any(again[0] is w for w in first), again[0].object_poses().round(3).tolist(), pool.built
+        (True, [[0.1, 0.2, 0.0]], 2)
+    """
+
+    def __init__(self, max_kept: int = 64) -> None:
+        if isinstance(max_kept, bool) or not isinstance(max_kept, int) or max_kept < 0:
+            raise ValueError(f"max_kept must be an int >= 0, got {max_kept!r}")
+        self.max_kept = max_kept
+        self.built = 0  # worlds built so far (the rest of the worlds handed out were reused)
+        self._idle: dict[tuple, list[ShelfWorld]] = {}
+        self._lent: list[tuple[tuple, ShelfWorld]] = []
+
+    def __getstate__(self) -> dict:
+        # a cache: copies and pickles (process workers) start empty rather than carry pymunk spaces
+        return {"max_kept": self.max_kept, "built": 0, "_idle": {}, "_lent": []}
+
+    def take(self, states: Sequence[RecreatedState]) -> list[ShelfWorld]:
+        """One world per state, set to it; the worlds of the previous call come back to the pool."""
+        for key, world in self._lent:
+            self._idle.setdefault(key, []).append(world)
+        self._lent = []
+        worlds = []
+        for state in states:
+            key = _object_set(state)
+            idle = self._idle.get(key)
+            if idle:
+                world = idle.pop()
+                world.set_poses(state.gripper_pose, np.array([o.pose for o in state.objects], float))
+                _set_gripper(world, state)
+            else:
+                world = make_world(state)
+                self.built += 1
+            self._lent.append((key, world))
+            worlds.append(world)
+        self._trim()
+        return worlds
+
+    def _trim(self) -> None:
+        kept = sum(len(v) for v in self._idle.values())
+        for key in list(self._idle):
+            if kept <= self.max_kept:
+                break
+            kept -= len(self._idle.pop(key))

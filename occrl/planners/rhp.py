@@ -22,9 +22,9 @@ import torch
 
 from occrl.envs import world_constants as C
 from occrl.envs.observation import world_pixels
-from occrl.envs.world import ShelfWorld
+from occrl.envs.pymunk2d.world import ShelfWorld
 from occrl.modules.occnet import OccNet
-from occrl.planners.recreate import RecreatedState, make_world
+from occrl.planners.recreate import RecreatedState, WorldPool, make_world
 
 __all__ = ["RHPResult", "rhp_batched", "rhp_sequential", "render_pixels", "NetworkStepper"]
 
@@ -134,10 +134,13 @@ def rhp_batched(
     noise: torch.Tensor,
     gamma: float = C.GAMMA,
     min_scale: float = 0.0,
+    pool: WorldPool | None = None,
 ) -> RHPResult:
     """All roots x m roll-outs in lock-step. ``hidden``: the LSTM state before the current
     observation, each (1, layers, H). ``noise``: (R, m, h, 4) standard normal draws.
     ``min_scale`` > 0 floors the policy's standard deviations in the roll-outs (beyond the paper).
+    ``pool``: take the roll-out worlds from this :class:`~occrl.planners.WorldPool` (kept worlds
+    reused, the same results) instead of building them.
 
     Examples:
         >>> import numpy as np
@@ -155,7 +158,8 @@ def rhp_batched(
     """
     R, m, depth, _ = noise.shape
     stepper = NetworkStepper(net, min_scale)
-    worlds = [make_world(root) for root in roots for _ in range(m)]
+    rollout_states = [root for root in roots for _ in range(m)]
+    worlds = pool.take(rollout_states) if pool is not None else [make_world(state) for state in rollout_states]
     n = len(worlds)
     # the m roll-outs of a root start from the same state: render and encode it once per root
     h0 = hidden[0].expand(R, *hidden[0].shape[1:]).contiguous()

@@ -18,8 +18,8 @@ from torchrl.envs.utils import check_env_specs  # noqa: E402
 from occrl.baselines import ScriptedRetriever  # noqa: E402
 from occrl.envs import MujocoShelfEnv, ShelfEnv, make_env  # noqa: E402
 from occrl.envs import world_constants as C  # noqa: E402
-from occrl.envs.mujoco_camera import gl_available
-from occrl.envs.mujoco_world import MujocoWorld  # noqa: E402
+from occrl.envs.mujoco3d.camera import gl_available
+from occrl.envs.mujoco3d.world import MujocoWorld  # noqa: E402
 from occrl.envs.visibility import visible_fractions  # noqa: E402
 from occrl.envs.shelf_geometry import wall_polygons  # noqa: E402
 from tests.helpers import scene  # noqa: E402

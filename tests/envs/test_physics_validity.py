@@ -11,7 +11,7 @@ import torch
 from occrl.envs import DEFAULT_PHYSICS, LEGACY_PHYSICS, PhysicsSettings, Scene, ShelfEnv, ShelfWorld
 from occrl.envs import world_constants as C
 from occrl.envs.geometry import transform_points
-from occrl.envs.physics_validity import adversarial_pushing, pymunk_world_factory
+from occrl.envs.pymunk2d.physics_validity import adversarial_pushing, pymunk_world_factory
 from occrl.envs.shelf_geometry import gripper_polygons, wall_polygons
 from tests.helpers import square
 

@@ -35,7 +35,7 @@ def test_scripted_retrieves_a_lone_target_in_the_mujoco_world():
 def test_mujoco_frames_show_the_gripper_camera():
     pytest.importorskip("dm_control")
     from occrl.envs import make_env
-    from occrl.envs.mujoco_camera import gl_available
+    from occrl.envs.mujoco3d.camera import gl_available
     from occrl.eval.film import frame
 
     if not gl_available()[0]:

@@ -101,3 +101,49 @@ def test_network_stepper_equals_the_tensordict_modules_bit_for_bit():
         assert torch.equal(h_next, td.get(("next", "recurrent_state_h")))
         assert torch.equal(c_next, td.get(("next", "recurrent_state_c")))
         assert torch.equal(stepper.value(out), value)
+
+
+def test_world_pool_worlds_step_as_newly_built_ones_bit_for_bit():
+    import copy
+
+    from occrl.planners import WorldPool
+
+    rng = np.random.default_rng(0)
+    pool = WorldPool()
+    states = [recreate(td[i]) for td in _visited_observations(2, 0.0, 4, steps=12, reset_done=False) for i in range(0, 8, 2)]
+    reused = 0
+    for state in states:
+        (kept,) = pool.take([state])
+        for _ in range(2):  # dirty the kept world, as a roll-out does
+            kept.step(rng.uniform(-1, 1, 4))
+        (world,) = pool.take([state])
+        reused += world is kept
+        fresh = make_world(state)
+        assert world.unseen_while_held == fresh.unseen_while_held and world.held == fresh.held
+        for _ in range(3):
+            action = rng.uniform(-1, 1, 4)
+            assert world.step(action) == fresh.step(action)
+            assert np.array_equal(world.object_poses(), fresh.object_poses())
+            assert np.array_equal(world.gripper_pose(), fresh.gripper_pose()) and world.opening == fresh.opening
+    assert reused == len(states)  # the same objects: the kept world was handed out again
+    assert copy.deepcopy(pool).take([states[0]])[0] is not world  # copies start empty
+
+
+def test_hybrid_planner_chooses_alike_with_and_without_kept_worlds():
+    from occrl.planners import HybridPlanner
+    from occrl.planners.rhp import rhp_batched
+    from occrl.pretrained import load_pretrained
+
+    net = load_pretrained("occnet")
+    planner = HybridPlanner(net, m=2, h=2, seed=0)
+    env = make_env(batch_size=1, stage=2, seed=5, heatmap_target=False).append_transform(net.make_primer())
+    td = env.rollout(6, planner)  # the pool is used across these decisions
+    assert planner.pool.built < 6 * 2
+    for d in planner.decisions:
+        roots = [r.state for r in d.roots]
+        noise = torch.zeros(len(roots), 2, 2, 4)
+        hidden = (torch.zeros(1, 1, 128), torch.zeros(1, 1, 128))
+        with_pool = rhp_batched(net, roots, hidden, noise, pool=planner.pool)
+        without = rhp_batched(net, roots, hidden, noise)
+        assert np.array_equal(with_pool.returns, without.returns) and np.array_equal(with_pool.action, without.action)
+    assert td.shape == (1, 6)

@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from occrl.envs import world_constants as C
-from occrl.envs.mujoco_camera import NEAR, CameraConfig, require_mujoco
+from occrl.envs.mujoco3d.camera import NEAR, CameraConfig, require_mujoco
 from occrl.envs.scene import Scene
 
 __all__ = ["build_mjcf", "type_height", "OBJECT_HEIGHT_RANGE", "OBJECT_DENSITY", "TIMESTEP"]
@@ -55,7 +55,7 @@ def type_height(type_id: int, height_range=OBJECT_HEIGHT_RANGE) -> float:
     """A deterministic height per type id in ``height_range`` (a float means a fixed height).
 
     Examples:
-        >>> from occrl.envs.mujoco_model import type_height
+        >>> from occrl.envs.mujoco3d.model import type_height
         >>> [round(type_height(t), 3) for t in (1, 2, 3)]  # in the default 10-18 cm range
         [0.149, 0.119, 0.168]
         >>> type_height(5, 0.12)
@@ -77,8 +77,8 @@ def build_mjcf(scene: Scene, camera: CameraConfig, object_height=OBJECT_HEIGHT_R
 
     Examples:
         >>> from occrl.envs import Scene
-        >>> from occrl.envs.mujoco_camera import CameraConfig
-        >>> from occrl.envs.mujoco_model import build_mjcf
+        >>> from occrl.envs.mujoco3d.camera import CameraConfig
+        >>> from occrl.envs.mujoco3d.model import build_mjcf
         >>> scene = Scene.sample(stage=1, seed=0)
         >>> model = build_mjcf(scene, CameraConfig())
         >>> len(scene), len(model.find_all("body")), model.find("camera", "wrist") is not None  # objects, hand, fingers

@@ -60,7 +60,7 @@ def require_mujoco():
     """Import ``mujoco`` and ``dm_control.mjcf`` or raise an ``ImportError`` naming the extra.
 
     Examples:
-        >>> from occrl.envs.mujoco_camera import require_mujoco
+        >>> from occrl.envs.mujoco3d.camera import require_mujoco
         >>> mujoco, mjcf = require_mujoco()
         >>> mujoco.__name__, mjcf.__name__
         ('mujoco', 'dm_control.mjcf')
@@ -178,7 +178,7 @@ class CameraConfig:
 
     Examples:
         >>> import numpy as np
-        >>> from occrl.envs.mujoco_camera import CameraConfig
+        >>> from occrl.envs.mujoco3d.camera import CameraConfig
         >>> camera = CameraConfig()  # 160 x 120 pixels, 70 degrees across
         >>> round(camera.fovy_degrees, 1), camera.ray_directions().shape
         (55.4, (19200, 3))
@@ -226,7 +226,7 @@ def prism_pixel_counts(prism: np.ndarray, camera: CameraConfig) -> tuple[int, in
 
     Examples:
         >>> import numpy as np
-        >>> from occrl.envs.mujoco_camera import CameraConfig, prism_pixel_counts
+        >>> from occrl.envs.mujoco3d.camera import CameraConfig, prism_pixel_counts
         >>> ring = np.array([[-0.02, -0.02, -0.22], [0.02, -0.02, -0.22], [0.02, -0.02, -0.18], [-0.02, -0.02, -0.18]])
         >>> cube = np.concatenate([ring, ring + [0.0, 0.04, 0.0]])  # a 4 cm cube 20 cm ahead of the camera
         >>> camera = CameraConfig(height=12, width=16)

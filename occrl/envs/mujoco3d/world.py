@@ -1,6 +1,6 @@
-"""One MuJoCo shelf world (DESIGN section 10): a scene built in 3D (:mod:`occrl.envs.mujoco_model`),
+"""One MuJoCo shelf world (DESIGN section 10): a scene built in 3D (:mod:`occrl.envs.mujoco3d.model`),
 the planar actions executed quasi-statically, the contact grasp, and what the gripper camera sees
-(:mod:`occrl.envs.mujoco_camera`).
+(:mod:`occrl.envs.mujoco3d.camera`).
 
 An action: if the gripper command changed, the fingers close or open first (0.4 s, the hand held
 in place); then the hand's servo targets move at constant velocity to the commanded pose
@@ -16,9 +16,9 @@ import math
 import numpy as np
 
 from occrl.envs import world_constants as C
-from occrl.envs.mujoco_camera import VISIBLE_GROUPS, CameraConfig, close_renderer, new_renderer, prism_pixel_counts, require_mujoco
-from occrl.envs.mujoco_model import FINGER_CLOSED_TARGET, OBJECT_HEIGHT_RANGE, TIMESTEP, build_mjcf, type_height
-from occrl.envs.physics_settings import INVALID_PENETRATION
+from occrl.envs.mujoco3d.camera import VISIBLE_GROUPS, CameraConfig, close_renderer, new_renderer, prism_pixel_counts, require_mujoco
+from occrl.envs.mujoco3d.model import FINGER_CLOSED_TARGET, OBJECT_HEIGHT_RANGE, TIMESTEP, build_mjcf, type_height
+from occrl.envs.pymunk2d.physics_settings import INVALID_PENETRATION
 from occrl.envs.scene import Scene
 from occrl.envs.shelf_geometry import beyond_walls
 from occrl.envs.task import StepOutcome, task_outcome
@@ -42,7 +42,7 @@ class MujocoWorld:
 
     Examples:
         >>> from occrl.envs import Scene
-        >>> from occrl.envs.mujoco_world import MujocoWorld
+        >>> from occrl.envs.mujoco3d.world import MujocoWorld
         >>> world = MujocoWorld(Scene.sample(stage=1, seed=0))  # visibility by ray casting: no OpenGL
         >>> (world.visible_fractions() > 0.5).tolist()  # object 2 is mostly hidden
         [True, True, False, True]

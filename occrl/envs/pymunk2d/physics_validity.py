@@ -15,9 +15,9 @@ from typing import Callable
 
 import numpy as np
 
-from occrl.envs.physics_settings import DEFAULT_PHYSICS, PhysicsSettings
+from occrl.envs.pymunk2d.physics_settings import DEFAULT_PHYSICS, PhysicsSettings
 from occrl.envs.scene import Scene
-from occrl.envs.world import ShelfWorld
+from occrl.envs.pymunk2d.world import ShelfWorld
 
 __all__ = ["PushingReport", "adversarial_pushing", "pymunk_world_factory"]
 
@@ -32,7 +32,7 @@ class PushingReport:
 
     Examples:
         >>> import numpy as np
-        >>> from occrl.envs.physics_validity import PushingReport
+        >>> from occrl.envs.pymunk2d.physics_validity import PushingReport
         >>> r = PushingReport(penetration=np.array([0.0, 0.001, 0.003]), crossings=0, seconds_per_action=1e-3)
         >>> round(r.share_above(0.002), 3), r.worst_mm
         (0.333, 3.0)
@@ -79,7 +79,7 @@ def adversarial_pushing(
     a function of its arguments.
 
     Examples:
-        >>> from occrl.envs.physics_validity import adversarial_pushing, pymunk_world_factory
+        >>> from occrl.envs.pymunk2d.physics_validity import adversarial_pushing, pymunk_world_factory
         >>> report = adversarial_pushing(pymunk_world_factory(), stage=2, noise=0.0, states=20)
         >>> report.states, report.crossings
         (20, 0)

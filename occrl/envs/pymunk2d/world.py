@@ -49,7 +49,7 @@ from occrl.envs.geometry import (
 )
 from occrl.envs.task import StepOutcome, task_outcome
 from occrl.envs.shelf_geometry import SHELF_WALLS, beyond_walls, gripper_polygons, inverse_pose, wall_polygons
-from occrl.envs.physics_settings import DEFAULT_PHYSICS, INVALID_PENETRATION, PhysicsSettings
+from occrl.envs.pymunk2d.physics_settings import DEFAULT_PHYSICS, INVALID_PENETRATION, PhysicsSettings
 from occrl.envs.scene import Scene
 
 # the shelf geometry (gripper_polygons, wall_polygons, inverse_pose, beyond_walls) lives in occrl.envs.shelf_geometry
@@ -81,7 +81,7 @@ def grasp_candidate(gripper_pose, opening: float, polygons: list[np.ndarray]) ->
 
     Examples:
         >>> import numpy as np
-        >>> from occrl.envs.world import grasp_candidate
+        >>> from occrl.envs.pymunk2d.world import grasp_candidate
         >>> box = np.array([[-0.02, 0.005], [0.02, 0.005], [0.02, 0.045], [-0.02, 0.045]])
         >>> grasp_candidate((0.0, 0.0, 0.0), 0.085, [box])[0]  # between the fingers
         0
@@ -310,6 +310,16 @@ class ShelfWorld:
         self.closed = bool(closed)
         self.held = held
         self._set_opening(float(opening))
+
+    def set_poses(self, gripper_pose: np.ndarray, object_poses: np.ndarray) -> None:
+        """Place the gripper and every object (``(n, 3)``) at rest (planning: a kept world set to
+        a new recreated state steps as a newly built one does, bit for bit) and clear the
+        validity measures of the last action."""
+        object_poses = np.asarray(object_poses, dtype=float).reshape(-1, 3)
+        if len(object_poses) != self.num_objects:
+            raise ValueError(f"object_poses must have one (x, y, theta) per object ({self.num_objects}), got {len(object_poses)}")
+        self._set_poses(np.asarray(gripper_pose, dtype=float), object_poses)
+        self.penetration, self.crossed_wall = 0.0, False
 
     def snapshot(self) -> dict:
         """The complete state: poses, gripper opening and grasp, noise generator."""

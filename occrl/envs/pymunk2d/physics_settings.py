@@ -28,7 +28,7 @@ class PhysicsSettings:
     """Integration settings of :class:`~occrl.envs.ShelfWorld`.
 
     Examples:
-        >>> from occrl.envs.physics_settings import DEFAULT_PHYSICS, PhysicsSettings
+        >>> from occrl.envs.pymunk2d.physics_settings import DEFAULT_PHYSICS, PhysicsSettings
         >>> DEFAULT_PHYSICS.collision_slop  # metres
         0.0005
         >>> PhysicsSettings(substeps=0)

@@ -17,9 +17,9 @@ from tensordict import TensorDictBase
 from torchrl.data import Bounded
 
 from occrl.envs import world_constants as C
-from occrl.envs.mujoco_camera import CameraConfig, gl_available, require_mujoco
-from occrl.envs.mujoco_model import OBJECT_HEIGHT_RANGE
-from occrl.envs.mujoco_world import MujocoWorld
+from occrl.envs.mujoco3d.camera import CameraConfig, gl_available, require_mujoco
+from occrl.envs.mujoco3d.model import OBJECT_HEIGHT_RANGE
+from occrl.envs.mujoco3d.world import MujocoWorld
 from occrl.envs.scene import Scene
 from occrl.envs.shelf_env import ShelfEnv
 
@@ -38,7 +38,7 @@ class MujocoShelfEnv(ShelfEnv):
     W 0.50 x D 0.35 x H 0.30 m shelf, the scene's polygons extruded to 10-18 cm tall prisms with
     mass and friction, and a planar Robotiq 2F-85 (position-servoed hand on slide x, slide y and
     hinge z joints, two coupled force-limited fingers with an 85 mm stroke) that grasps by contact
-    and friction alone. See :mod:`occrl.envs.mujoco_world` for the model.
+    and friction alone. See :mod:`occrl.envs.mujoco3d.world` for the model.
 
     Perception: only objects more than 50 % visible in the gripper camera (70 degree horizontal
     field of view) are reported, with type id, planar pose and the type's polygon. The visible

@@ -1,0 +1,100 @@
+"""Hybrid-planner decision time of this checkout against a reference checkout, in one run.
+
+Usage:
+    git worktree add /tmp/occrl-ref <commit>        # the code to compare against
+    python benchmarks/planner_speedup.py --reference /tmp/occrl-ref [--decisions 24] [--rounds 2]
+
+Both sides take the same decisions (observations along scripted stage-2 episodes, one planner per
+m x h that sees them in episode order, as in an episode) in child processes on one core each,
+alternated side by side for ``--rounds`` rounds so that the machine's drift hits both alike. It
+prints, per m x h, the p50 and p95 decision time of each side and their ratio (this / reference),
+and whether both sides chose the same actions (they should, unless the reference predates a
+behaviour change).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+SIZES = ((2, 2), (4, 4), (6, 6))
+
+# what each child runs: only public API that both sides have
+CHILD = r"""
+import json, sys, time
+import torch
+torch.set_num_threads(1)
+from occrl.baselines import ScriptedRetriever
+from occrl.envs import Scene, make_env
+from occrl.planners import HybridPlanner
+from occrl.pretrained import load_pretrained
+
+decisions = int(sys.argv[1])
+net = load_pretrained("occnet")
+obs, seed = [], 0
+while len(obs) < decisions:
+    env = make_env(batch_size=1, scenes=[Scene.sample(2, seed=20_000 + seed)], heatmap_target=False).append_transform(net.make_primer())
+    seed += 1
+    td = env.rollout(12, ScriptedRetriever())
+    obs += [td[:, t].exclude("privileged") for t in range(0, td.shape[1], 3)]
+obs = obs[:decisions]
+out = {}
+for m, h in json.loads(sys.argv[2]):
+    planner = HybridPlanner(net, m=m, h=h, seed=0)
+    times, actions = [], []
+    for td in obs:
+        t = time.perf_counter()
+        actions.append(planner(td.clone())["action"].reshape(-1).tolist())
+        times.append(time.perf_counter() - t)
+    out[f"{m}x{h}"] = {"times": times, "actions": actions}
+print(json.dumps(out))
+"""
+
+
+def measure(root: Path, decisions: int) -> dict:
+    env = dict(os.environ, PYTHONPATH=str(root), OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
+    proc = subprocess.run(
+        [sys.executable, "-c", CHILD, str(decisions), json.dumps(SIZES)], cwd=root, env=env, capture_output=True, text=True, check=False
+    )
+    if proc.returncode != 0:
+        raise SystemExit(f"the run in {root} failed:\n{proc.stderr[-3000:]}")
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--reference", required=True, help="a checkout of the code to compare against (e.g. a git worktree)")
+    parser.add_argument("--decisions", type=int, default=24)
+    parser.add_argument("--rounds", type=int, default=2)
+    args = parser.parse_args()
+    here = Path(__file__).resolve().parent.parent
+    ref = Path(args.reference).resolve()
+    if not (ref / "occrl" / "__init__.py").is_file():
+        raise SystemExit(f"--reference must be a checkout of occrl (no occrl/__init__.py under {ref})")
+    runs: dict[str, list[dict]] = {"this": [], "reference": []}
+    for r in range(args.rounds):
+        for side, root in (("reference", ref), ("this", here)) if r % 2 == 0 else (("this", here), ("reference", ref)):
+            runs[side].append(measure(root, args.decisions))
+            print(f"round {r + 1}/{args.rounds}: {side} done", flush=True)
+    print(f"\n{args.decisions} decisions on stage-2 states x {args.rounds} rounds, one core per side; reference: {ref}")
+    print("| m x h | reference p50 / p95 (ms) | this p50 / p95 (ms) | ratio p50 | ratio p95 | same actions |")
+    print("| --- | --- | --- | --- | --- | --- |")
+    for m, h in SIZES:
+        key = f"{m}x{h}"
+        t = {side: 1e3 * np.concatenate([run[key]["times"] for run in runs[side]]) for side in runs}
+        p = {side: (np.percentile(v, 50), np.percentile(v, 95)) for side, v in t.items()}
+        same = sum(a == b for a, b in zip(runs["this"][0][key]["actions"], runs["reference"][0][key]["actions"]))
+        print(
+            f"| {key} | {p['reference'][0]:.1f} / {p['reference'][1]:.1f} | {p['this'][0]:.1f} / {p['this'][1]:.1f} "
+            f"| {p['this'][0] / p['reference'][0]:.2f}x | {p['this'][1] / p['reference'][1]:.2f}x | {same}/{args.decisions} |"
+        )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,13 @@
+"""The 2D shelf world the planners imagine and the default env executes in (pymunk).
+
+* :mod:`~occrl.envs.pymunk2d.world`: :class:`ShelfWorld`, a scene as rigid pymunk bodies with
+  the gripper, one action at a time, exact snapshots.
+* :mod:`~occrl.envs.pymunk2d.physics_settings`: how it integrates (:class:`PhysicsSettings`).
+* :mod:`~occrl.envs.pymunk2d.physics_validity`: the adversarial-pushing check that solids stay
+  apart.
+"""
+
+from occrl.envs.pymunk2d.physics_settings import DEFAULT_PHYSICS, LEGACY_PHYSICS, PhysicsSettings
+from occrl.envs.pymunk2d.world import ShelfWorld
+
+__all__ = ["ShelfWorld", "PhysicsSettings", "DEFAULT_PHYSICS", "LEGACY_PHYSICS"]
