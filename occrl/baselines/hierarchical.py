@@ -28,13 +28,7 @@ Hand-crafted primitives (the paper's heuristics):
   ends a sweep as soon as the target is detected (a complete sweep is still forced after a failed
   plan, so a failure always costs actions and never loops silently). These two options are what
   makes Search, Rearrange, Move_out, Search, Retrieve fit into 50 actions.
-* Move_out: back out of the shelf with the gripper open. Candidate motions (straight back,
-  back along the arm, back while turning to face the shelf, sideways then back) are simulated in
-  the recreated world and the shortest one that drops nothing, keeps out of the walls and (target
-  unlocated) out of the hiding region is executed.
-* Choices for Rearrange: the known non-target object nearest to the gripper (objects already
-  moved last); a free spot in the back rows, clear of known objects, outside the hiding region,
-  preferring a straight way there that crosses no known object and the least hiding region.
+* Move_out and the choices for Rearrange: :mod:`occrl.baselines.primitives`.
 
 Low level. Retrieve and Rearrange are each two OMPL control queries in a nominal pymunk
 :class:`~occrl.envs.ShelfWorld` built from the accumulated detections (:func:`make_world`), each
@@ -71,7 +65,7 @@ from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
 
 from occrl.envs import world_constants as C
-from occrl.envs.geometry import point_in_convex_polygon, polygons_overlap, transform_points
+from occrl.envs.geometry import polygons_overlap, transform_points
 from occrl.envs.perception import OBSERVATION_KEYS
 from occrl.envs.scene import SceneObject
 from occrl.envs.shelf_geometry import gripper_polygons
@@ -81,16 +75,14 @@ from occrl.planners.recreate import RecreatedState, make_world
 from occrl.baselines.hiding import HidingRegion
 from occrl.baselines.goals import GoalSpec, HoldGoal, ReachGoal, grasp_poses
 from occrl.baselines.kinodynamic import PlanResult, SimControlProblem
+from occrl.baselines.primitives import KnownObject, closest_object, free_spot, move_out
 from occrl.baselines.motion import (
     CLOSE,
     OPEN,
     OUT_Y,
     STALE_OVERLAP,
-    STROKE_HALF,
-    count_intrusions,
     is_at,
     is_inside_shelf,
-    motion_allowed,
     steer_action,
 )
 
@@ -106,20 +98,11 @@ logger = logging.getLogger(__name__)
 
 # ====================================================================== policy
 @dataclass
-class _Known:
-    type_id: int
-    vertices: np.ndarray
-    pose: np.ndarray
-    is_target: bool
-    seen_step: int
-
-
-@dataclass
 class _Episode:
     """Per-world memory and high-level state."""
 
     step: int = 0
-    memory: dict = field(default_factory=dict)  # type id -> _Known
+    memory: dict = field(default_factory=dict)  # type id -> KnownObject
     views: list = field(default_factory=list)  # (gripper pose, known object polygons) of every observation
     queue: deque = field(default_factory=deque)
     expected: deque = field(default_factory=deque)  # gripper pose after each queued action (simulated)
@@ -349,7 +332,7 @@ class HierarchicalPlanner(TensorDictModuleBase):
         for k in np.flatnonzero(det):
             tid = int(type_id[k])
             seen.add(tid)
-            ep.memory[tid] = _Known(tid, verts[k, : nv[k]].copy(), poses[k].copy(), tid == target_type, ep.step)
+            ep.memory[tid] = KnownObject(tid, verts[k, : nv[k]].copy(), poses[k].copy(), tid == target_type, ep.step)
         if ep.predicted is not None and not ep.queue:
             # a plan was executed to its end: objects out of view are where the simulator put them
             for tid, p in ep.predicted.items():
@@ -367,7 +350,7 @@ class HierarchicalPlanner(TensorDictModuleBase):
         opening = float(obs.get("gripper_opening").reshape(-1)[0])
         closed = bool(obs.get("gripper_closed").reshape(-1)[0])
         gripper = [transform_points(p, pose) for p in gripper_polygons(opening)]
-        kept: list[tuple[_Known, np.ndarray]] = []
+        kept: list[tuple[KnownObject, np.ndarray]] = []
         for k in sorted(ep.memory.values(), key=lambda k: -k.seen_step):  # freshest first
             poly = transform_points(k.vertices, k.pose)
             fresh = k.seen_step == ep.step
@@ -391,7 +374,8 @@ class HierarchicalPlanner(TensorDictModuleBase):
             ep.stage = "search"
             if not is_inside_shelf(pose):
                 return None
-            actions, poses = self._move_out(ep, obs, pose)
+            state, _ = self._state(ep, obs, pose)
+            actions, poses = move_out(state, pose, self._hiding(ep, state), self.search_y)
             ep.queue.extend(actions)
             ep.expected.clear()
             ep.expected.extend(poses)
@@ -426,7 +410,7 @@ class HierarchicalPlanner(TensorDictModuleBase):
             if self._target_id(ep) is not None:
                 ep.stage = "retrieve_reach"
             else:
-                tid = self._closest_object(ep, pose)
+                tid = closest_object(ep.memory.values(), ep.rearranged, pose)
                 if tid is None:  # nothing known to move: look again
                     logger.info("no target and no object known: searching again")
                     ep.force_sweep = True
@@ -455,7 +439,7 @@ class HierarchicalPlanner(TensorDictModuleBase):
         if ep.stage == "rearrange_place":
             if ep.rearrange_id not in ids:
                 return self._fail(ep, "the object to rearrange is no longer known")
-            spot = self._free_spot(ep, state, ids, ep.rearrange_id)
+            spot = free_spot(state, ids.index(ep.rearrange_id), self._hiding(ep, state))
             if spot is None:
                 return self._fail(ep, "no free spot at the back of the shelf")
             plan = self._plan_hold(ep, state, ids, ep.rearrange_id, spot=spot, finish=[np.array([0.0, 0.0, 0.0, OPEN])])
@@ -562,109 +546,3 @@ class HierarchicalPlanner(TensorDictModuleBase):
             views = views[:: max(1, len(views) // 16)]
             ep.hiding = (ep.step, HidingRegion(state.target_vertices, views, state.polygons()))
         return ep.hiding[1]
-
-    # ------------------------------------------------------------------ heuristics
-    def _closest_object(self, ep: _Episode, pose: np.ndarray) -> int | None:
-        """The known non-target object closest to the gripper (not yet rearranged, if possible)."""
-        cands = [k for k in ep.memory.values() if not k.is_target]
-        fresh = [k for k in cands if k.type_id not in ep.rearranged]
-        cands = fresh or cands
-        if not cands:
-            return None
-        return min(cands, key=lambda k: math.hypot(k.pose[0] - pose[0], k.pose[1] - pose[1])).type_id
-
-    def _free_spot(self, ep: _Episode, state: RecreatedState, ids: list[int], tid: int) -> np.ndarray | None:
-        """A spot at the back of the shelf for object ``tid`` (current orientation), clear of the
-        known objects by 1.5 cm and far enough from the side walls for the fingers. Preference,
-        in order: the spot is outside the region where the unlocated target may hide; the
-        straight corridor from the object to the spot (gripper width) crosses no known object;
-        it crosses the least hiding region; the back row; the shortest way."""
-        i = ids.index(tid)
-        obj = state.objects[i]
-        others = [o.world_vertices() for j, o in enumerate(state.objects) if j != i]
-        r = float(np.linalg.norm(obj.vertices, axis=1).max())
-        xmax = C.SHELF_HALF_WIDTH - max(r, STROKE_HALF + C.FINGER_WIDTH) - 0.01
-        hiding = self._hiding(ep, state)
-        half = max(r, STROKE_HALF + C.FINGER_WIDTH) * 0.8
-        start = np.asarray(obj.pose[:2], float)
-        best, best_key = None, None
-        for y in (C.SHELF_DEPTH - r - 0.015, C.SHELF_DEPTH - r - 0.065):
-            for x in np.arange(-xmax, xmax + 1e-9, 0.01):
-                poly = transform_points(obj.vertices, (x, y, obj.pose[2]))
-                if any(polygons_overlap(poly, o, clearance=0.015) for o in others):
-                    continue
-                spot = np.array([x, y])
-                d = spot - start
-                length = float(np.hypot(*d))
-                n = np.array([-d[1], d[0]]) / max(length, 1e-9)
-                steps = np.linspace(0.0, 1.0, max(2, int(length / 0.01)))[:, None]
-                corridor = np.concatenate([start + steps * d + k * half * n for k in (-1.0, 0.0, 1.0)])
-                blocked = sum(bool(point_in_convex_polygon(corridor, o).any()) for o in others)
-                in_hiding = hiding is not None and bool(hiding(np.vstack([poly, spot])).any())
-                crossing = 0 if hiding is None else int(hiding(corridor).sum())
-                key = (in_hiding, blocked, crossing, y < C.SHELF_DEPTH - r - 0.04, length)
-                if best_key is None or key < best_key:
-                    best, best_key = spot, key
-        return best
-
-    def _move_out(self, ep: _Episode, obs: TensorDictBase, pose: np.ndarray) -> tuple[list[np.ndarray], list[np.ndarray]]:
-        """Move_out: back out of the shelf with the gripper open, a hand-crafted primitive.
-        Candidate motions are tried in the simulator of the known state (closed-loop steering):
-        straight back (world -y, heading kept), back along the gripper's own axis, straight back
-        while turning to face the shelf, and 3 or 6 cm sideways (towards the centre first) then
-        straight back; the shortest that drops nothing, keeps out of the walls and (target
-        unlocated) out of the hiding region is executed open-loop. Returns its actions and the
-        simulated gripper pose after each."""
-        state, _ = self._state(ep, obs, pose)
-        world = make_world(state)
-        forbidden = self._hiding(ep, state)
-        forbidden = None if forbidden is None or forbidden.empty else forbidden
-        start = world.snapshot()
-        baseline = None
-        if forbidden is not None:
-            baseline = count_intrusions(world.gripper_pose(), world.opening, world.nominal_vertices, world.object_poses(), forbidden)
-        out_y = min(self.search_y, OUT_Y - 0.005)
-        x, y, th = (float(v) for v in pose)
-        toward_centre = -1.0 if x > 0 else 1.0
-        candidates = {
-            "straight back": [(x, out_y, th)],
-            "along the arm": None,
-            "back and turn": [(x, out_y, 0.0)],
-        }
-        for dx in (0.03, 0.06):
-            for sign in (toward_centre, -toward_centre):
-                candidates[f"sideways {sign * dx:+.2f} then back"] = [(x + sign * dx, y, th), (x + sign * dx, out_y, th)]
-        best, best_poses = None, []
-        for name, waypoints in candidates.items():
-            world.restore(start)
-            actions, poses, ok, k = [], [], True, 0
-            while is_inside_shelf(world.gripper_pose()) and len(actions) < 15 and (best is None or len(actions) < len(best)):
-                p = world.gripper_pose()
-                if waypoints is None:
-                    a = np.array([-1.0, 0.0, 0.0, OPEN])
-                else:
-                    while k < len(waypoints) - 1 and is_at(p, waypoints[k], tol_xy=2e-3, tol_th=math.radians(1.0)):
-                        k += 1
-                    a = steer_action(p, waypoints[k], OPEN)
-                out = world.step(a)
-                actions.append(a)
-                poses.append(world.gripper_pose())
-                allowed = motion_allowed(
-                    world.gripper_pose(), world.opening, world.nominal_vertices, world.object_poses(), forbidden, baseline
-                )
-                if out.dropped or not allowed:
-                    ok = False
-                    break
-            if ok and not is_inside_shelf(world.gripper_pose()) and (best is None or len(actions) < len(best)):
-                best, best_poses = actions, poses
-        if best is None:
-            logger.warning("move out: every candidate motion collides in the simulator; backing straight out")
-            world.restore(start)
-            best, best_poses = [], []
-            while is_inside_shelf(world.gripper_pose()) and len(best) < 15:
-                best.append(steer_action(world.gripper_pose(), candidates["straight back"][0], OPEN))
-                world.step(best[-1])
-                best_poses.append(world.gripper_pose())
-        if not best:
-            return [np.array([0.0, 0.0, 0.0, OPEN])], [np.asarray(pose, float)]
-        return best, best_poses

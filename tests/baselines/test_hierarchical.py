@@ -154,13 +154,14 @@ def test_rejects_bad_arguments():
 
 
 def test_move_out_backs_straight_out_when_every_candidate_motion_is_rejected(monkeypatch):
-    import occrl.baselines.hierarchical as hier
+    import occrl.baselines.primitives as primitives
+    from occrl.planners import recreate
 
     env = make_env(batch_size=1, scenes=[scene([(0.1, 0.3, 0.0, True)], gripper=(0.0, 0.15, 0.0))], heatmap_target=False)
     obs = env.reset()[0].exclude("privileged")
-    planner = HierarchicalPlanner(seed=0)
-    monkeypatch.setattr(hier, "motion_allowed", lambda *args, **kwargs: False)  # every simulated candidate "collides"
-    actions, poses = planner._move_out(hier._Episode(), obs, obs["gripper_pose"].numpy().astype(float))
+    monkeypatch.setattr(primitives, "motion_allowed", lambda *args, **kwargs: False)  # every simulated candidate "collides"
+    pose = obs["gripper_pose"].numpy().astype(float)
+    actions, poses = primitives.move_out(recreate(obs), pose, None, search_y=HierarchicalPlanner().search_y)
     assert len(actions) > 1 and len(poses) == len(actions)
     assert poses[-1][1] < poses[0][1]  # the simulated poses move out of the shelf
     assert all(a[0] < 0 and a[3] <= 0 for a in actions)  # backwards, gripper open
