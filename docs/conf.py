@@ -101,7 +101,7 @@ copy_notebooks()
 @functools.cache
 def occrl_modules() -> tuple:
     """Every module of the package (optional extras are installed for the docs build)."""
-    names = ["occrl"] + [m.name for m in pkgutil.walk_packages(occrl.__path__, "occrl.")]
+    names = ["occrl"] + [m.name for m in pkgutil.walk_packages(occrl.__path__, "occrl.") if not m.name.endswith(".__main__")]
     return tuple(importlib.import_module(n) for n in names)
 
 

@@ -1,25 +1,19 @@
-"""Command line: ``occrl demo | train | eval | export | bench``.
-
-``occrl demo`` runs the hybrid planner with the shipped network on a few random shelves and writes
-a summary and a GIF (the privileged scripted retriever when no network is shipped).
-"""
+"""What each ``occrl`` command does: demo, train, eval, export, bench (the parser is in
+:mod:`occrl.cli`)."""
 
 from __future__ import annotations
 
 import argparse
 import json
-import logging
-import math
-import os
-import re
 import sys
 import time
 from pathlib import Path
 
-from occrl import __version__
 from occrl.atomic_files import write_text_atomic
 
-__all__ = ["main"]
+from occrl.cli.options import checked_weights_file, parse_objects
+
+__all__ = ["run_demo", "run_train", "run_eval", "run_export", "run_bench", "network_of"]
 
 
 def _gl_available() -> bool:
@@ -32,13 +26,7 @@ def _gl_available() -> bool:
     return ok
 
 
-def _weights_file(value: str | None) -> str | None:
-    from occrl.pretrained import weights_file
-
-    return weights_file(value)
-
-
-def _demo(args: argparse.Namespace) -> int:
+def run_demo(args: argparse.Namespace) -> int:
     import numpy as np
 
     from occrl.envs import Scene, make_env
@@ -61,7 +49,7 @@ def _demo(args: argparse.Namespace) -> int:
         from occrl.modules.weights import load_weights
         from occrl.pretrained import load_pretrained
 
-        net = load_weights(_weights_file(args.weights)) if args.weights else load_pretrained("occnet")
+        net = load_weights(checked_weights_file(args.weights)) if args.weights else load_pretrained("occnet")
         m, h = (int(v) for v in method.split("-")[-1].split("x"))
         policy = HybridPlanner(net, m=m, h=h, seed=args.seed)
         primers = [net.make_primer()]
@@ -111,10 +99,10 @@ def _stop_on_signals() -> None:
     signal.signal(signal.SIGINT, stop)
 
 
-def _train(args: argparse.Namespace) -> int:
+def run_train(args: argparse.Namespace) -> int:
     from occrl.training import TrainConfig, Trainer, get_train_config
 
-    # the options generated from TrainConfig (_add_train_settings); --preset picks the preset itself
+    # the options generated from TrainConfig (add_train_settings); --preset picks the preset itself
     settable = [name for name in TrainConfig.field_docs() if name != "preset"]
     overrides = {name: getattr(args, name) for name in settable if getattr(args, name, None) is not None}
     if "device" in overrides:
@@ -172,7 +160,7 @@ def _stop_ray_if_used(args: argparse.Namespace) -> None:
         stop_ray()
 
 
-def _eval(args: argparse.Namespace) -> int:
+def run_eval(args: argparse.Namespace) -> int:
     from occrl.eval.methods import METHODS, PLANNERS
     from occrl.eval.runner import run_tasks, summarize
 
@@ -206,7 +194,7 @@ def _eval(args: argparse.Namespace) -> int:
                 args.seed,
                 batch=args.batch,
                 workers=args.workers,
-                weights=_weights_file(args.weights),
+                weights=checked_weights_file(args.weights),
                 progress=not args.no_progress,
                 backend=args.backend,
                 ray_address=args.ray_address,
@@ -228,7 +216,7 @@ def _eval(args: argparse.Namespace) -> int:
         print(f"unknown method {args.method!r}; available: {METHODS}", file=sys.stderr)
         return 2
     seeds = list(range(args.seed, args.seed + args.tasks))
-    objects = _parse_objects(args.objects)
+    objects = parse_objects(args.objects)
     batch = 1 if args.method in PLANNERS else args.batch  # planners: one world per task, exact per-task time
     if args.world == "mujoco":
         batch = 1  # one MuJoCo world per task: per-task time is exact and memory stays small
@@ -241,7 +229,7 @@ def _eval(args: argparse.Namespace) -> int:
             objects,
             batch,
             args.workers,
-            _weights_file(args.weights),
+            checked_weights_file(args.weights),
             not args.no_progress,
             backend=args.backend,
             ray_address=args.ray_address,
@@ -307,24 +295,6 @@ def _summary_table(summary: dict, fmt: str) -> str:
     return "| " + " | ".join(SUMMARY_COLUMNS) + " |\n|" + " --- |" * len(SUMMARY_COLUMNS) + "\n| " + " | ".join(cells) + " |"
 
 
-def _parse_objects(text: str | None) -> int | tuple[int, int] | None:
-    """``--objects``: a count ("7") or a range ("1-10", each task draws its count from its seed)."""
-    if text is None:
-        return None
-    try:
-        if "-" in text:
-            low, high = (int(v) for v in text.split("-", 1))
-            if not 1 <= low <= high:
-                raise ValueError
-            return (low, high)
-        count = int(text)
-        if count < 1:
-            raise ValueError
-        return count
-    except ValueError:
-        raise ValueError(f"--objects must be a count >= 1 or a range LOW-HIGH with 1 <= LOW <= HIGH, got {text!r}") from None
-
-
 def network_of(method: str) -> str | None:
     """The shipped network a method uses."""
     if method == "scripted":
@@ -332,7 +302,7 @@ def network_of(method: str) -> str | None:
     return "occnet-noheatmap" if method in ("greedy", "stochastic") else "occnet"
 
 
-def _export(args: argparse.Namespace) -> int:
+def run_export(args: argparse.Namespace) -> int:
     """Ship a run's weights inside the package as a named pretrained network."""
     import shutil
 
@@ -380,17 +350,17 @@ def _export(args: argparse.Namespace) -> int:
     cards = json.loads(cards_path.read_text()) if cards_path.exists() else {}
     cards[args.name] = card
     cards_path.write_text(json.dumps(cards, indent=2))
-    docs = Path(__file__).resolve().parent.parent / "docs"
+    docs = Path(__file__).resolve().parents[2] / "docs"
     if not args.dest and docs.exists() and (run / "learning_curves.png").exists():
         shutil.copy(run / "learning_curves.png", docs / f"learning_curves_{args.name}.png")
     print(json.dumps(card, indent=2))
     return 0
 
 
-def _bench(args: argparse.Namespace) -> int:
+def run_bench(args: argparse.Namespace) -> int:
     import runpy
 
-    root = Path(__file__).resolve().parent.parent / "benchmarks"
+    root = Path(__file__).resolve().parents[2] / "benchmarks"
     script = root / f"{args.name}.py"
     if not script.exists():
         if not root.exists():
@@ -406,222 +376,3 @@ def _bench(args: argparse.Namespace) -> int:
     sys.argv = [str(script)] + args.rest
     runpy.run_path(str(script), run_name="__main__")
     return 0
-
-
-def _bounded(kind, low=None, high=None, low_open=False, what=""):
-    """An argparse type: a ``kind`` (int or float) within [low, high] (``low_open``: > low), finite;
-    otherwise argparse's one-line error naming the option, the value and what is allowed."""
-
-    def parse(text: str):
-        try:
-            value = kind(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{text!r} is not {'an integer' if kind is int else 'a number'}") from None
-        if kind is float and not math.isfinite(value):
-            raise argparse.ArgumentTypeError(f"{text} is not a finite number")
-        too_low = low is not None and (value <= low if low_open else value < low)
-        if too_low or (high is not None and value > high):
-            raise argparse.ArgumentTypeError(f"{text} is out of range; allowed: {what}")
-        return value
-
-    return parse
-
-
-COUNT = _bounded(int, 1, what="an integer >= 1")
-NON_NEGATIVE = _bounded(int, 0, what="an integer >= 0")
-SEED = _bounded(int, 0, 2**63 - 1, what="an integer in [0, 2**63)")
-POSITIVE = _bounded(float, 0.0, low_open=True, what="a number > 0")
-NOISE = _bounded(float, 0.0, 1.0, what="a number in [0, 1] (the paper uses 0 to 0.25)")
-SCALE = _bounded(float, 0.0, 1.0, what="a number in [0, 1]")
-
-
-FRACTION = _bounded(float, 0.0, 1.0, what="a number in [0, 1]")
-NON_NEGATIVE_NUMBER = _bounded(float, 0.0, what="a number >= 0")
-DISCOUNT = _bounded(float, 0.0, 1.0, low_open=True, what="a number in (0, 1]")
-# argparse types of the training settings that are not plain non-negative integers or numbers
-SETTING_TYPES = {
-    **{
-        name: COUNT
-        for name in (
-            "num_envs",
-            "steps_per_env",
-            "workers",
-            "epochs",
-            "minibatch_envs",
-            "imitation_buffer_iters",
-            "promote_window",
-            "promotion_eval_every",
-            "promotion_eval_tasks",
-        )
-    },
-    **{name: FRACTION for name in ("heatmap_fraction", "imitation_beta_min", "promote_threshold", "gae_lambda", "noise")},
-    "gamma": DISCOUNT,
-}
-
-
-def _add_train_settings(parser: argparse.ArgumentParser) -> None:
-    """One option per :class:`~occrl.training.TrainConfig` setting (``--num-envs`` for
-    ``num_envs``; ``--heatmap/--no-heatmap`` for a flag), its help the setting's docstring; an
-    option given overrides the preset's value."""
-    from dataclasses import fields
-
-    from occrl.modules import PRESETS
-    from occrl.training.config import SETTING_CHOICES, TrainConfig
-
-    docs = TrainConfig.field_docs()
-    group = parser.add_argument_group("training settings (default: the preset's; TrainConfig)")
-    for f in fields(TrainConfig):
-        if f.name == "preset":
-            continue
-        flag = "--" + f.name.replace("_", "-")
-        text = re.sub(r":\w+:`~?([^`]+)`", r"\1", docs[f.name]).replace("``", "").replace("%", "%%")  # no reST in --help
-        if f.type in (bool, "bool"):
-            group.add_argument(flag, dest=f.name, action=argparse.BooleanOptionalAction, default=None, help=text)
-        elif f.name == "start_stage":
-            group.add_argument(flag, dest=f.name, type=int, choices=[1, 2, 3], default=None, help=text)
-        elif f.type in (int, "int"):
-            group.add_argument(flag, dest=f.name, type=SETTING_TYPES.get(f.name, NON_NEGATIVE), default=None, help=text)
-        elif f.type in (float, "float"):
-            group.add_argument(flag, dest=f.name, type=SETTING_TYPES.get(f.name, NON_NEGATIVE_NUMBER), default=None, help=text)
-        else:
-            choices = PRESETS if f.name == "net_preset" else SETTING_CHOICES.get(f.name)
-            group.add_argument(flag, dest=f.name, choices=choices, default=None, help=text)
-
-
-def make_parser() -> argparse.ArgumentParser:
-    """The ``occrl`` command line: demo, train, eval, export, bench."""
-    parser = argparse.ArgumentParser(prog="occrl", description=__doc__.splitlines()[0])
-    parser.add_argument("-v", "--verbose", action="store_true")
-    parser.add_argument("--version", action="version", version=f"occrl {__version__}")
-    sub = parser.add_subparsers(dest="command", required=True)
-
-    d = sub.add_parser("demo", help="retrieve targets from random shelves; writes a summary and a GIF")
-    d.add_argument("--tasks", type=COUNT, default=3)
-    d.add_argument("--stage", type=int, default=1, choices=[1, 2, 3])
-    d.add_argument("--seed", type=SEED, default=2024)
-    d.add_argument("--out", default="occrl-demo")
-    d.add_argument("--fps", type=POSITIVE, default=4.0)
-    d.add_argument("--method", default="hybrid-4x4", choices=["hybrid-2x2", "hybrid-4x4", "hybrid-6x6", "scripted"])
-    d.add_argument("--weights", default=None, help="network weights file or a shipped network's name instead of occnet")
-    d.add_argument(
-        "--world",
-        choices=["pymunk", "mujoco"],
-        default="pymunk",
-        help="execute in the 2D pymunk world or the 3D MuJoCo shelf (frames add the gripper-camera image)",
-    )
-    d.set_defaults(func=_demo)
-
-    t = sub.add_parser("train", help="train OccNet (curriculum PPO + heat-map loss); resumes from RUN_DIR")
-    t.add_argument(
-        "--preset", default="paper", help="training preset (occrl/training/config.py): paper, cpu, cpu-finetune, cpu-curriculum, tiny"
-    )
-    t.add_argument("--run-dir", required=True, help="run folder (checkpoint, logs, curves); keep it outside the source tree")
-    t.add_argument("--seed", type=SEED, default=0)
-    t.add_argument("--iterations", type=COUNT, default=None, help="stop after this many iterations in total")
-    t.add_argument("--max-hours", type=POSITIVE, default=None, help="stop after this many hours of this session")
-    t.add_argument(
-        "--ray-address",
-        default=None,
-        help="with --collector ray: join this Ray cluster ('auto', 'host:6379', 'ray://host:10001'); default: start a local Ray runtime",
-    )
-    _add_train_settings(t)
-    t.add_argument(
-        "--init-weights",
-        default=None,
-        help="start a new run from these weights: a weights file (e.g. a run's weights_warmstart.pt) "
-        "or a shipped name (occnet, occnet-noheatmap); used by the cpu-finetune preset",
-    )
-    t.add_argument("--checkpoint-every", type=POSITIVE, default=300.0, help="seconds between checkpoints")
-    t.add_argument("--no-progress", action="store_true")
-    t.set_defaults(func=_train)
-
-    e = sub.add_parser("eval", help="run a method on fixed task seeds and report success, actions, time")
-    e.add_argument("--method", help="hybrid-2x2, hybrid-4x4, hybrid-6x6, hybrid-lim-4x4, greedy, stochastic, stochastic-gen, scripted")
-    e.add_argument("--sweep", action="store_true", help="the papers' clutter and noise sweeps (resumable; --out is a folder)")
-    e.add_argument("--methods", default=None, help="comma-separated methods for --sweep (default: all but scripted)")
-    e.add_argument(
-        "--chunk",
-        type=COUNT,
-        default=None,
-        help="with --sweep: rounds of this many tasks (every point gets them before any gets more), so an "
-        "interrupted sweep leaves a complete figure; cached points are extended, never recomputed",
-    )
-    e.add_argument("--stage", type=int, default=1, choices=[1, 2, 3])
-    e.add_argument(
-        "--objects", default=None, help="object count per task: a number, or a range like 1-10 (each task draws its count from its seed)"
-    )
-    e.add_argument(
-        "--world",
-        choices=["pymunk", "mujoco"],
-        default="pymunk",
-        help="execution env: the 2D pymunk world or the 3D MuJoCo shelf (planners still plan in pymunk)",
-    )
-    e.add_argument("--noise", type=NOISE, default=0.0)
-    e.add_argument("--tasks", type=COUNT, default=200, help="tasks per point (the paper uses 300 for sweeps)")
-    e.add_argument("--seed", type=SEED, default=10_000_000, help="first task seed (held-out range by default)")
-    e.add_argument("--batch", type=COUNT, default=16, help="worlds stepped together (policies; planners use 1)")
-    e.add_argument("--workers", type=COUNT, default=1, help="processes (or Ray actors) to spread tasks over")
-    e.add_argument(
-        "--backend",
-        choices=["local", "ray"],
-        default="local",
-        help="local processes or Ray actors (results are the same for the same seeds)",
-    )
-    e.add_argument("--ray-address", default=None, help="with --backend ray: join this Ray cluster (default: a local runtime)")
-    e.add_argument(
-        "--weights", default=None, help="network weights file, or a shipped network's name (occnet-ei), instead of the method's default"
-    )
-    e.add_argument(
-        "--rollout-min-scale",
-        type=SCALE,
-        default=0.0,
-        help="hybrid planners: floor on the roll-out policy's standard deviation (default 0: the policy's own, as in the paper)",
-    )
-    e.add_argument("--out", default=None, help="write the results as JSON")
-    e.add_argument(
-        "--format",
-        choices=["text", "markdown", "csv"],
-        default="text",
-        help="how to print the summary: a sentence, a Markdown table or CSV",
-    )
-    e.add_argument("--no-progress", action="store_true")
-    e.set_defaults(func=_eval)
-
-    x = sub.add_parser("export", help="ship a training run's weights in the package (occrl.load_pretrained)")
-    x.add_argument("--run-dir", required=True)
-    x.add_argument("--name", required=True, help="occnet, occnet-noheatmap or occnet-ei")
-    x.add_argument("--preset", required=True, help="the training preset the run used")
-    x.add_argument("--seed", type=SEED, default=0)
-    x.add_argument(
-        "--weights", default=None, help="weights file in the run folder (default weights.pt, the latest; e.g. weights_warmstart.pt)"
-    )
-    x.add_argument("--dest", default=None, help="write into this folder instead of the package's pretrained/ (for trying it out)")
-    x.set_defaults(func=_export)
-
-    b = sub.add_parser("bench", help="run a speed benchmark from benchmarks/")
-    b.add_argument("name", help="e.g. env_throughput")
-    b.add_argument("rest", nargs=argparse.REMAINDER)
-    b.set_defaults(func=_bench)
-
-    return parser
-
-
-def main(argv: list[str] | None = None) -> int:
-    parser = make_parser()
-    try:
-        args = parser.parse_args(argv)
-    except SystemExit as exit_:  # argparse printed the usage and a one-line error (or the help)
-        return int(exit_.code or 0)
-    logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
-    os.environ.setdefault("MUJOCO_GL", "egl")
-    try:
-        return args.func(args)
-    except (ValueError, FileNotFoundError, ImportError) as err:  # bad input: say what, not a traceback
-        if args.verbose:
-            raise
-        print(f"occrl {args.command}: error: {err}", file=sys.stderr)
-        return 2
-
-
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
