@@ -106,7 +106,7 @@ def run_train(args: argparse.Namespace) -> int:
     settable = [name for name in TrainConfig.field_docs() if name != "preset"]
     overrides = {name: getattr(args, name) for name in settable if getattr(args, name, None) is not None}
     if "device" in overrides:
-        from occrl.training.trainer import training_device
+        from occrl.training.config import training_device
 
         try:
             training_device(overrides["device"])

@@ -4,7 +4,8 @@ from occrl.modules.weights import CheckpointError, load_weights, save_weights
 from occrl.training.checkpoint import load_checkpoint, save_checkpoint
 from occrl.training.config import TRAIN_PRESETS, TrainConfig, get_train_config
 from occrl.training.curriculum import Curriculum
-from occrl.training.trainer import Trainer, episode_stats
+from occrl.training.stats import episode_stats
+from occrl.training.trainer import Trainer
 
 __all__ = [
     "TrainConfig",

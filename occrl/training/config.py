@@ -4,9 +4,11 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, fields, replace
 
+import torch
+
 from occrl.envs import world_constants as C
 
-__all__ = ["TrainConfig", "TRAIN_PRESETS", "SETTING_CHOICES", "get_train_config"]
+__all__ = ["TrainConfig", "TRAIN_PRESETS", "SETTING_CHOICES", "get_train_config", "training_device"]
 
 # The values a string setting accepts (the trainer checks them; ``occrl train`` offers them).
 SETTING_CHOICES: dict[str, tuple[str, ...]] = {
@@ -255,3 +257,31 @@ def get_train_config(preset: str = "paper", **overrides) -> TrainConfig:
     if preset not in TRAIN_PRESETS:
         raise ValueError(f"unknown training preset {preset!r}; available: {sorted(TRAIN_PRESETS)}")
     return replace(TRAIN_PRESETS[preset], **overrides)
+
+
+def training_device(name: str) -> torch.device:
+    """The torch device for ``TrainConfig.device``, with a clear error where it does not exist.
+
+    Examples:
+        >>> training_device("cpu")
+        device(type='cpu')
+        >>> training_device("tpu")
+        Traceback (most recent call last):
+            ...
+        ValueError: device must be 'cpu', 'cuda' or 'cuda:N', got 'tpu'
+    """
+    try:
+        device = torch.device(name)
+    except (RuntimeError, TypeError):
+        device = None
+    if device is None or device.type not in ("cpu", "cuda"):
+        raise ValueError(f"device must be 'cpu', 'cuda' or 'cuda:N', got {name!r}")
+    if device.type == "cuda":
+        if not torch.cuda.is_available():
+            raise ValueError(
+                f"device {name!r}: no CUDA device is available here (torch.cuda.is_available() is False; "
+                f"this torch build: {torch.__version__}); train with device 'cpu'"
+            )
+        if device.index is not None and device.index >= torch.cuda.device_count():
+            raise ValueError(f"device {name!r}: only {torch.cuda.device_count()} CUDA device(s) here")
+    return device

@@ -40,17 +40,24 @@ from occrl.training.config import TrainConfig
 from occrl.training.curriculum import Curriculum
 from occrl.training.dagger import ExpertMixPolicy, OnlineTeacherPolicy, label_with_expert, label_with_planner
 from occrl.training.learner import Learner
+from occrl.training.run_folder import (
+    CHECKPOINT,
+    DAGGER_DATA,
+    METRICS,
+    WARM_START_WEIGHTS,
+    WEIGHTS,
+    file_sha256,
+    same_run_settings,
+    truncate_metrics,
+)
+from occrl.training.config import training_device
+from occrl.training.stats import episode_stats
 
-__all__ = ["Trainer", "episode_stats", "hybrid_validation_success", "training_device", "VALIDATION_SEED_BASE"]
+__all__ = ["Trainer", "hybrid_validation_success", "VALIDATION_SEED_BASE"]
 
 logger = logging.getLogger(__name__)
 
-CHECKPOINT = "checkpoint.pt"
-DAGGER_DATA = "dagger_buffer.pt"
-WEIGHTS = "weights.pt"
-WARM_START_WEIGHTS = "weights_warmstart.pt"  # the network at the end of the DAgger warm start, before PPO
 VALIDATION_SEED_BASE = 20_000_000  # hybrid-promotion tasks (held-out evaluation starts at 10_000_000)
-METRICS = "metrics.jsonl"
 IMITATION_TEACHERS = ("scripted", "hybrid", "hybrid-acting", "hierarchical")
 # the hierarchical teacher: closed-loop (re-plans when the learner leaves its plan: 1 cm / 10 degrees),
 # 1 s per OMPL query, no episode time limit (labels, not a timed evaluation), a Search that starts at
@@ -59,100 +66,6 @@ IMITATION_TEACHERS = ("scripted", "hybrid", "hybrid-acting", "hierarchical")
 HIERARCHICAL_TEACHER = dict(
     plan_seconds=1.0, follow_tolerance=(0.01, math.radians(10.0)), time_limit=1e6, sweep_from="nearest", stop_when_located=True
 )
-
-
-# settings that change where frames are computed but not which: a run may resume under another one
-_RUNTIME_SETTINGS = {"collector": {"multi", "ray"}}
-_MACHINE_SETTINGS = ("device",)  # a run resumes on any device
-
-
-def training_device(name: str) -> torch.device:
-    """The torch device for ``TrainConfig.device``, with a clear error where it does not exist.
-
-    Examples:
-        >>> training_device("cpu")
-        device(type='cpu')
-        >>> training_device("tpu")
-        Traceback (most recent call last):
-            ...
-        ValueError: device must be 'cpu', 'cuda' or 'cuda:N', got 'tpu'
-    """
-    try:
-        device = torch.device(name)
-    except (RuntimeError, TypeError):
-        device = None
-    if device is None or device.type not in ("cpu", "cuda"):
-        raise ValueError(f"device must be 'cpu', 'cuda' or 'cuda:N', got {name!r}")
-    if device.type == "cuda":
-        if not torch.cuda.is_available():
-            raise ValueError(
-                f"device {name!r}: no CUDA device is available here (torch.cuda.is_available() is False; "
-                f"this torch build: {torch.__version__}); train with device 'cpu'"
-            )
-        if device.index is not None and device.index >= torch.cuda.device_count():
-            raise ValueError(f"device {name!r}: only {torch.cuda.device_count()} CUDA device(s) here")
-    return device
-
-
-def _complete_row(line: str) -> bool:
-    """Whether a metrics line is a whole JSON row (a crash mid-append leaves a partial one)."""
-    try:
-        return isinstance(json.loads(line), dict)
-    except json.JSONDecodeError:
-        return False
-
-
-def _sha256(path: str | Path) -> str:
-    import hashlib
-
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
-
-
-def _same_run_settings(saved: dict, current: dict) -> bool:
-    """Equal training settings, except a run collected by "multi" may resume on "ray" and back, and
-    on any device. Settings added after a checkpoint was written take their defaults (the behaviour
-    it ran with); settings removed since are dropped where they were off
-    (:meth:`TrainConfig.from_dict` refuses them otherwise)."""
-    saved = TrainConfig.from_dict(saved).to_dict()
-    for key, interchangeable in _RUNTIME_SETTINGS.items():
-        if saved.get(key) in interchangeable and current.get(key) in interchangeable:
-            saved, current = {**saved, key: None}, {**current, key: None}
-    for key in _MACHINE_SETTINGS:
-        saved, current = {**saved, key: None}, {**current, key: None}
-    return saved == current
-
-
-def episode_stats(data: TensorDictBase) -> dict:
-    """The first episode of each row of a [B, T] batch that starts with a reset, if it finished:
-    success flag, return and length.
-
-    Only the first: an episode that follows a finished one has T minus that one's length steps
-    left, so it is counted only when it is short, and short episodes are mostly successes; with
-    them the training success of stage 2 read ~15 points above the held-out figure of the same
-    policy. With ``steps_per_env`` at the 50-action limit (every preset but ``tiny``) every row's
-    first episode finishes in the batch, so the rate is unbiased.
-
-    Examples:
-        >>> from occrl.baselines import ScriptedRetriever
-        >>> from occrl.envs import Scene, make_env
-        >>> from occrl.training.trainer import episode_stats
-        >>> env = make_env(batch_size=1, scenes=[Scene.sample(1, seed=0, num_objects=1)], heatmap_target=False)
-        >>> stats = episode_stats(env.rollout(50, ScriptedRetriever()))
-        >>> stats["success"], stats["returns"][0] == -stats["lengths"][0]
-        ([True], True)
-    """
-    done = data.get(("next", "done")).squeeze(-1).numpy()
-    success = data.get(("next", "success")).squeeze(-1).numpy()
-    reward = data.get(("next", "reward")).squeeze(-1).numpy()
-    succ, rets, lens = [], [], []
-    for b in range(done.shape[0]):
-        ends = np.flatnonzero(done[b])
-        if len(ends):
-            t = int(ends[0])
-            succ.append(bool(success[b, t]))
-            rets.append(float(reward[b, : t + 1].sum()))
-            lens.append(t + 1)
-    return {"success": succ, "returns": rets, "lengths": lens}
 
 
 def hybrid_validation_success(net, stage: int, tasks: int, noise: float = 0.0) -> float:
@@ -266,7 +179,7 @@ class Trainer:
         ckpt = self.run_dir / CHECKPOINT
         if ckpt.exists():
             obj = load_checkpoint(ckpt, self.net, self.optimizer)
-            if not _same_run_settings(obj["train_config"], config.to_dict()):
+            if not same_run_settings(obj["train_config"], config.to_dict()):
                 raise ValueError(f"{ckpt} was written with other training settings; use another run folder")
             st = obj["state"]
             if st["seed"] != self.seed:
@@ -282,7 +195,7 @@ class Trainer:
             logger.info("resumed %s at iteration %d (stage %d, %d frames)", ckpt, self.iteration, self.curriculum.stage, self.frames)
             self._truncate_metrics()
             self.init_weights = st.get("init_weights")
-            if init_weights is not None and (self.init_weights or {}).get("sha256") != _sha256(init_weights):
+            if init_weights is not None and (self.init_weights or {}).get("sha256") != file_sha256(init_weights):
                 # the checkpoint holds the weights; the starting point only matters for the record
                 logger.warning(
                     "resuming %s, which started from %s, not from the given %s (the latter is ignored)",
@@ -296,7 +209,7 @@ class Trainer:
             if init_weights is not None:
                 load_weights(init_weights, self.net)  # CheckpointError for another architecture or a bad file
                 self.net.eval()
-                self.init_weights = {"path": str(init_weights), "sha256": _sha256(init_weights)}
+                self.init_weights = {"path": str(init_weights), "sha256": file_sha256(init_weights)}
                 logger.info("new run from the weights in %s", init_weights)
         self._sync_acting_net()
         self.collection = TrainingCollector(config, self.seed, self.acting_net, self.update_threads, ray_address)
@@ -503,14 +416,7 @@ class Trainer:
 
     def _truncate_metrics(self) -> None:
         """Drop metric rows written after the checkpoint we resumed from (they will be redone)."""
-        path = self.run_dir / METRICS
-        if path.exists():
-            rows = [
-                line for line in path.read_text().splitlines() if _complete_row(line) and json.loads(line)["iteration"] <= self.iteration
-            ]
-            tmp = path.with_suffix(".jsonl.tmp")
-            tmp.write_text("".join(r + "\n" for r in rows))
-            tmp.replace(path)
+        truncate_metrics(self.run_dir / METRICS, self.iteration)
 
     def _log(self, summary: dict) -> None:
         with open(self.run_dir / METRICS, "a") as f:

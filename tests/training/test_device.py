@@ -7,7 +7,7 @@ from occrl.cli import main
 from occrl.modules import make_occnet
 from occrl.planners import HybridPlanner
 from occrl.training import Trainer, get_train_config
-from occrl.training.trainer import training_device
+from occrl.training.config import training_device
 
 NO_CUDA = not torch.cuda.is_available()
 
@@ -38,10 +38,10 @@ def test_an_explicit_cpu_device_trains_and_a_run_resumes_on_any_device(tmp_path)
     tr.close()
     weights = [p.detach().clone() for p in tr.net.parameters()]
     # the same run folder resumes under another device setting (a machine setting, not a training one)
-    from occrl.training.trainer import _same_run_settings
+    from occrl.training.run_folder import same_run_settings
 
-    assert _same_run_settings(cfg.to_dict(), get_train_config("tiny", device="cuda:0").to_dict())
-    assert not _same_run_settings(cfg.to_dict(), get_train_config("tiny", lr=1.0).to_dict())
+    assert same_run_settings(cfg.to_dict(), get_train_config("tiny", device="cuda:0").to_dict())
+    assert not same_run_settings(cfg.to_dict(), get_train_config("tiny", lr=1.0).to_dict())
     again = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False)
     assert again.iteration == 2 and all(torch.equal(a, b) for a, b in zip(weights, again.net.parameters()))
     again.close()

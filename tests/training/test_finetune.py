@@ -92,11 +92,11 @@ def test_kl_early_stop(tmp_path):
 
 def test_removed_settings_resume_when_off_and_are_refused_when_on(tmp_path):
     from occrl.training import TrainConfig
-    from occrl.training.trainer import _same_run_settings
+    from occrl.training.run_folder import same_run_settings
 
     base = get_train_config("cpu-finetune")
     old = {**base.to_dict(), "ppo_bc_coeff": 0.0, "ppo_bc_min_scale": 0.01, "freeze_policy_scale": False}
-    assert TrainConfig.from_dict(old) == base and _same_run_settings(old, base.to_dict())
+    assert TrainConfig.from_dict(old) == base and same_run_settings(old, base.to_dict())
     for name, value in (("ppo_bc_coeff", 1.0), ("freeze_policy_scale", True)):
         with pytest.raises(ValueError, match=f"{name}={value!r} was removed in occrl 0.2.0.*git checkout eed1cea"):
             TrainConfig.from_dict({**old, name: value})

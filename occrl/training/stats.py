@@ -1,0 +1,41 @@
+"""Statistics of collected batches: the finished episodes the logs and the curriculum read."""
+
+from __future__ import annotations
+
+import numpy as np
+from tensordict import TensorDictBase
+
+__all__ = ["episode_stats"]
+
+
+def episode_stats(data: TensorDictBase) -> dict:
+    """The first episode of each row of a [B, T] batch that starts with a reset, if it finished:
+    success flag, return and length.
+
+    Only the first: an episode that follows a finished one has T minus that one's length steps
+    left, so it is counted only when it is short, and short episodes are mostly successes; with
+    them the training success of stage 2 read ~15 points above the held-out figure of the same
+    policy. With ``steps_per_env`` at the 50-action limit (every preset but ``tiny``) every row's
+    first episode finishes in the batch, so the rate is unbiased.
+
+    Examples:
+        >>> from occrl.baselines import ScriptedRetriever
+        >>> from occrl.envs import Scene, make_env
+        >>> from occrl.training.stats import episode_stats
+        >>> env = make_env(batch_size=1, scenes=[Scene.sample(1, seed=0, num_objects=1)], heatmap_target=False)
+        >>> stats = episode_stats(env.rollout(50, ScriptedRetriever()))
+        >>> stats["success"], stats["returns"][0] == -stats["lengths"][0]
+        ([True], True)
+    """
+    done = data.get(("next", "done")).squeeze(-1).numpy()
+    success = data.get(("next", "success")).squeeze(-1).numpy()
+    reward = data.get(("next", "reward")).squeeze(-1).numpy()
+    succ, rets, lens = [], [], []
+    for b in range(done.shape[0]):
+        ends = np.flatnonzero(done[b])
+        if len(ends):
+            t = int(ends[0])
+            succ.append(bool(success[b, t]))
+            rets.append(float(reward[b, : t + 1].sum()))
+            lens.append(t + 1)
+    return {"success": succ, "returns": rets, "lengths": lens}
