@@ -26,7 +26,7 @@ from occrl.envs import world_constants as C
 from occrl.envs.perception import OBSERVATION_KEYS
 from occrl.modules.occnet import OccNet, require_recurrent_state
 from occrl.planners.recreate import WorldPool, recreate
-from occrl.planners.rhp import RHPResult, rhp_batched, rhp_sequential
+from occrl.planners.rhp import INFERENCE_BACKENDS, NetworkStepper, RHPResult, rhp_batched, rhp_sequential
 from occrl.planners.states import Root, generate_states
 
 __all__ = ["HybridPlanner", "select_root", "Decision"]
@@ -91,6 +91,10 @@ class HybridPlanner(TensorDictModuleBase):
             iteration, gives m nearly equal roll-outs and nothing to choose from; a floor keeps
             the m candidates apart (beyond the paper; on `occnet-ei` it did not raise stage-2
             success: docs/decisions.md).
+        inference: how the roll-outs call the network (batched RHP): ``"torch"`` (the torch
+            modules, bit for bit as the TensorDict modules) or ``"onnxruntime"`` (the network
+            exported once, at construction, several times faster per call, equal to float
+            rounding; ``pip install onnx onnxruntime``; it keeps the weights of that moment).
 
     Examples:
         >>> import torch
@@ -115,6 +119,7 @@ class HybridPlanner(TensorDictModuleBase):
         seed: int = 0,
         batched: bool = True,
         rollout_min_scale: float = 0.0,
+        inference: str = "torch",
     ) -> None:
         super().__init__()
         if not isinstance(net, OccNet):
@@ -142,6 +147,11 @@ class HybridPlanner(TensorDictModuleBase):
         self.rollout_min_scale = float(rollout_min_scale)
         self.generator = torch.Generator().manual_seed(int(seed))
         self.pool = WorldPool()  # roll-out worlds kept between decisions (batched RHP)
+        if inference not in INFERENCE_BACKENDS:
+            raise ValueError(f"inference must be one of {INFERENCE_BACKENDS}, got {inference!r}")
+        self.inference = inference
+        self.stepper = NetworkStepper(self.net, self.rollout_min_scale, backend=inference)
+        self.heatmap_head = net.heatmap_head.module[0].module  # "belief" -> "heatmap_logits"
         self.decisions: list[Decision] = []
         self.in_keys = ["pixels", "is_init", "recurrent_state_h", "recurrent_state_c", *OBSERVATION_KEYS]
         self.out_keys = ["action", ("next", "recurrent_state_h"), ("next", "recurrent_state_c"), "heatmap"]
@@ -158,16 +168,22 @@ class HybridPlanner(TensorDictModuleBase):
         is_init = flat.get("is_init").reshape(-1)
         hidden_h[is_init] = 0.0  # the LSTM starts afresh at an episode start
         hidden_c[is_init] = 0.0
-        real = self.net.heatmap(flat.copy())  # advances the LSTM over the real history
-        heat = real.get("heatmap")[:, 0].numpy()
+        # the real observation advances the LSTM over the real history (net.heatmap's modules,
+        # called directly: the same values as the TensorDict modules, tested)
+        embed = self.stepper.encoder(flat.get("pixels"))
+        belief, (next_h, next_c) = self.stepper.lstm(
+            embed.unsqueeze(1), (hidden_h.transpose(0, 1).contiguous(), hidden_c.transpose(0, 1).contiguous())
+        )
+        heatmap = torch.sigmoid(self.heatmap_head(belief[:, -1]))
+        heat = heatmap[:, 0].numpy()
         actions = []
         for b in range(flat.shape[0]):
             actions.append(self.decide(flat[b], heat[b], (hidden_h[b : b + 1], hidden_c[b : b + 1])).action)
         action = torch.as_tensor(np.stack(actions), dtype=torch.float32)
         tensordict.set("action", action.reshape(*tensordict.shape, C.ACTION_DIM))
-        tensordict.set("heatmap", real.get("heatmap").reshape(*tensordict.shape, *real.get("heatmap").shape[1:]))
-        for key in (("next", "recurrent_state_h"), ("next", "recurrent_state_c")):
-            value = real.get(key)
+        tensordict.set("heatmap", heatmap.reshape(*tensordict.shape, *heatmap.shape[1:]))
+        for key, value in ((("next", "recurrent_state_h"), next_h), (("next", "recurrent_state_c"), next_c)):
+            value = value.transpose(0, 1)  # as the tensordict stores it: (B, layers, H)
             tensordict.set(key, value.reshape(*tensordict.shape, *value.shape[1:]))
         return tensordict
 
@@ -182,7 +198,8 @@ class HybridPlanner(TensorDictModuleBase):
         noise = torch.randn(len(roots), self.m, self.h, C.ACTION_DIM, generator=self.generator)
         states = [r.state for r in roots]
         if self.batched:
-            result = rhp_batched(self.net, states, hidden, noise, self.gamma, self.rollout_min_scale, pool=self.pool)
+            self.stepper.min_scale = self.rollout_min_scale
+            result = rhp_batched(self.net, states, hidden, noise, self.gamma, self.rollout_min_scale, pool=self.pool, stepper=self.stepper)
         else:
             result = rhp_sequential(self.net, states, hidden, noise, self.gamma, self.rollout_min_scale)
         chosen = select_root(np.array([r.weight for r in roots]), result.value)

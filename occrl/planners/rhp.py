@@ -26,7 +26,7 @@ from occrl.envs.pymunk2d.world import ShelfWorld
 from occrl.modules.occnet import OccNet
 from occrl.planners.recreate import RecreatedState, WorldPool, make_world
 
-__all__ = ["RHPResult", "rhp_batched", "rhp_sequential", "render_pixels", "NetworkStepper"]
+__all__ = ["RHPResult", "rhp_batched", "rhp_sequential", "render_pixels", "NetworkStepper", "INFERENCE_BACKENDS"]
 
 
 def render_pixels(worlds: Sequence[ShelfWorld]) -> torch.Tensor:
@@ -47,13 +47,36 @@ def render_pixels(worlds: Sequence[ShelfWorld]) -> torch.Tensor:
     return world_pixels(worlds)
 
 
+INFERENCE_BACKENDS = ("torch", "onnxruntime")
+
+
+class _StepGraph(torch.nn.Module):
+    """encoder -> one LSTM step -> policy and value heads on plain tensors (exported to ONNX)."""
+
+    def __init__(self, net: OccNet) -> None:
+        super().__init__()
+        self.encoder, self.lstm = net.encoder.module, net.lstm.lstm
+        self.policy_head, self.value_head = net.actor.module[0].module, net.critic.module
+
+    def forward(self, pixels: torch.Tensor, h: torch.Tensor, c: torch.Tensor):
+        belief, (h_next, c_next) = self.lstm(self.encoder(pixels).unsqueeze(1), (h, c))
+        belief = belief[:, -1]
+        loc, scale = self.policy_head(belief)
+        return belief, loc, scale, self.value_head(belief).squeeze(-1), h_next, c_next
+
+
 class NetworkStepper:
     """One LSTM step of an OccNet on a batch of images: the roll-outs' network call.
 
-    It calls the network's own torch modules (encoder, LSTM, policy and value heads) directly
-    under ``torch.inference_mode``, skipping the TensorDict plumbing of ``net.trunk`` /
-    ``net.actor`` / ``net.critic``, which on the roll-outs' batches of 1-12 images cost as much as
-    the arithmetic. The outputs equal the TensorDict modules' bit for bit (tested).
+    ``backend="torch"`` (default) calls the network's own torch modules (encoder, LSTM, policy and
+    value heads) directly under ``torch.inference_mode``, skipping the TensorDict plumbing of
+    ``net.trunk`` / ``net.actor`` / ``net.critic``, which on the roll-outs' batches of 1-12 images
+    cost as much as the arithmetic; the outputs equal the TensorDict modules' bit for bit (tested).
+    ``backend="onnxruntime"`` exports the step to ONNX once, at construction, and runs it with ONNX
+    Runtime (``pip install onnx onnxruntime``), several times faster on these batches
+    (``benchmarks/network_inference.py``); its outputs agree with torch's to float rounding
+    (about 1e-6, tested), so decisions can differ in rare near-ties. It runs the weights the net
+    had when the stepper was built.
 
     Examples:
         >>> import torch
@@ -66,31 +89,85 @@ class NetworkStepper:
         (torch.Size([2, 4]), torch.Size([2, 1, 128]), torch.Size([2]))
     """
 
-    def __init__(self, net: OccNet, min_scale: float = 0.0) -> None:
+    def __init__(self, net: OccNet, min_scale: float = 0.0, backend: str = "torch") -> None:
+        if backend not in INFERENCE_BACKENDS:
+            raise ValueError(f"backend must be one of {INFERENCE_BACKENDS}, got {backend!r}")
         self.net = net
         self.encoder = net.encoder.module  # "pixels" -> "embed"
         self.lstm = net.lstm.lstm  # the torch LSTM inside TorchRL's LSTMModule
         self.policy_head = net.actor.module[0].module  # "belief" -> "loc", "scale"
         self.value_head = net.critic.module  # "belief" -> "state_value"
         self.min_scale = float(min_scale)  # floor on the roll-outs' policy spread (0: the policy's own)
+        self.backend = backend
+        self.session = _onnx_session(net) if backend == "onnxruntime" else None
+
+    def __getstate__(self) -> dict:
+        # an ONNX Runtime session does not pickle (process workers): rebuilt from the net on load
+        return {**self.__dict__, "session": None}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        if self.backend == "onnxruntime":
+            self.session = _onnx_session(self.net)
 
     @torch.inference_mode()
     def step(self, pixels: torch.Tensor, h: torch.Tensor, c: torch.Tensor) -> tuple[dict[str, torch.Tensor], torch.Tensor, torch.Tensor]:
         """``pixels`` (B, 3, 64, 64) and the LSTM state before them, each (B, layers, H) as the
-        tensordict stores it -> ``{"belief", "loc", "scale"}`` and the state after them."""
-        embed = self.encoder(pixels)
-        # LSTMModule's one-step path: a time dimension of 1, the state as (layers, B, H)
-        belief, (h_next, c_next) = self.lstm(embed.unsqueeze(1), (h.transpose(0, 1).contiguous(), c.transpose(0, 1).contiguous()))
-        belief = belief[:, -1]
-        loc, scale = self.policy_head(belief)
+        tensordict stores it -> ``{"belief", "loc", "scale"}`` (and ``"value"`` on ONNX Runtime)
+        and the state after them."""
+        h, c = h.transpose(0, 1).contiguous(), c.transpose(0, 1).contiguous()  # LSTM layout (layers, B, H)
+        if self.session is not None:
+            feed = {"pixels": pixels.numpy(), "h": h.numpy(), "c": c.numpy()}
+            belief, loc, scale, value, h_next, c_next = (torch.from_numpy(x) for x in self.session.run(None, feed))
+            out = {"belief": belief, "loc": loc, "scale": scale, "value": value}
+        else:
+            # LSTMModule's one-step path: a time dimension of 1
+            belief, (h_next, c_next) = self.lstm(self.encoder(pixels).unsqueeze(1), (h, c))
+            belief = belief[:, -1]
+            loc, scale = self.policy_head(belief)
+            out = {"belief": belief, "loc": loc, "scale": scale}
         if self.min_scale > 0:
-            scale = scale.clamp(min=self.min_scale)
-        return {"belief": belief, "loc": loc, "scale": scale}, h_next.transpose(0, 1), c_next.transpose(0, 1)
+            out["scale"] = out["scale"].clamp(min=self.min_scale)
+        return out, h_next.transpose(0, 1), c_next.transpose(0, 1)
 
     @torch.inference_mode()
     def value(self, out: dict[str, torch.Tensor]) -> torch.Tensor:
         """(B,) the value head on ``out["belief"]``."""
+        if "value" in out:
+            return out["value"]
         return self.value_head(out["belief"]).squeeze(-1)
+
+
+def _onnx_session(net: OccNet):
+    """The step graph of ``net`` exported to ONNX and loaded in an ONNX Runtime session that uses
+    as many threads as torch does here."""
+    try:
+        import onnxruntime as ort
+    except ImportError:
+        raise ImportError("the onnxruntime inference backend needs ONNX Runtime: pip install onnx onnxruntime") from None
+    import io
+    import warnings
+
+    graph = _StepGraph(net).eval()
+    pixels = torch.zeros(2, 3, net.config.image_size, net.config.image_size)
+    state = torch.zeros(net.lstm.lstm.num_layers, 2, net.lstm.lstm.hidden_size)
+    buffer = io.BytesIO()
+    with torch.no_grad(), warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the exporter's notes on RNNs and its deprecation notice
+        torch.onnx.export(
+            graph,
+            (pixels, state, state),
+            buffer,
+            input_names=["pixels", "h", "c"],
+            output_names=["belief", "loc", "scale", "value", "h_next", "c_next"],
+            dynamic_axes={"pixels": {0: "batch"}, "h": {1: "batch"}, "c": {1: "batch"}},
+            dynamo=False,
+        )
+    options = ort.SessionOptions()
+    options.intra_op_num_threads = torch.get_num_threads()
+    options.inter_op_num_threads = 1
+    options.log_severity_level = 3
+    return ort.InferenceSession(buffer.getvalue(), options, providers=["CPUExecutionProvider"])
 
 
 @dataclass
@@ -135,12 +212,14 @@ def rhp_batched(
     gamma: float = C.GAMMA,
     min_scale: float = 0.0,
     pool: WorldPool | None = None,
+    stepper: NetworkStepper | None = None,
 ) -> RHPResult:
     """All roots x m roll-outs in lock-step. ``hidden``: the LSTM state before the current
     observation, each (1, layers, H). ``noise``: (R, m, h, 4) standard normal draws.
     ``min_scale`` > 0 floors the policy's standard deviations in the roll-outs (beyond the paper).
     ``pool``: take the roll-out worlds from this :class:`~occrl.planners.WorldPool` (kept worlds
-    reused, the same results) instead of building them.
+    reused, the same results) instead of building them. ``stepper``: the network calls (default
+    ``NetworkStepper(net, min_scale)``, torch; its own ``min_scale`` applies).
 
     Examples:
         >>> import numpy as np
@@ -157,7 +236,7 @@ def rhp_batched(
         ((2, 4), (2,), 8)
     """
     R, m, depth, _ = noise.shape
-    stepper = NetworkStepper(net, min_scale)
+    stepper = stepper if stepper is not None else NetworkStepper(net, min_scale)
     rollout_states = [root for root in roots for _ in range(m)]
     worlds = pool.take(rollout_states) if pool is not None else [make_world(state) for state in rollout_states]
     n = len(worlds)

@@ -147,3 +147,48 @@ def test_hybrid_planner_chooses_alike_with_and_without_kept_worlds():
         without = rhp_batched(net, roots, hidden, noise)
         assert np.array_equal(with_pool.returns, without.returns) and np.array_equal(with_pool.action, without.action)
     assert td.shape == (1, 6)
+
+
+def test_onnxruntime_stepper_agrees_with_torch_to_float_rounding():
+    pytest.importorskip("onnxruntime")
+    import copy
+
+    from occrl.planners import HybridPlanner
+    from occrl.planners.rhp import NetworkStepper
+    from occrl.pretrained import load_pretrained
+
+    net = load_pretrained("occnet")
+    eager, onnx = NetworkStepper(net), NetworkStepper(net, backend="onnxruntime")
+    for n in (1, 4, 12):
+        g = torch.Generator().manual_seed(n)
+        pixels, h, c = torch.rand(n, 3, 64, 64, generator=g), torch.randn(n, 1, 128, generator=g), torch.randn(n, 1, 128, generator=g)
+        (a, ha, ca), (b, hb, cb) = eager.step(pixels, h, c), onnx.step(pixels, h, c)
+        for key in ("belief", "loc", "scale"):
+            torch.testing.assert_close(a[key], b[key], atol=1e-4, rtol=1e-4)
+        torch.testing.assert_close(ha, hb, atol=1e-4, rtol=1e-4)
+        torch.testing.assert_close(ca, cb, atol=1e-4, rtol=1e-4)
+        torch.testing.assert_close(eager.value(a), onnx.value(b), atol=1e-3, rtol=1e-4)
+    planner = HybridPlanner(net, m=2, h=2, inference="onnxruntime")
+    env = make_env(batch_size=1, stage=1, seed=0, heatmap_target=False).append_transform(net.make_primer())
+    assert env.rollout(3, planner)["action"].shape == (1, 3, 4)
+    assert copy.deepcopy(planner).stepper.session is not None  # rebuilt on copy / in a worker
+    with pytest.raises(ValueError, match="inference must be one of"):
+        HybridPlanner(net, inference="tensorrt")
+
+
+def test_hybrid_planner_advances_the_lstm_as_the_tensordict_modules_do():
+    from occrl.planners import HybridPlanner
+    from occrl.pretrained import load_pretrained
+
+    net = load_pretrained("occnet")
+    env = make_env(batch_size=2, stage=2, seed=7, heatmap_target=False).append_transform(net.make_primer())
+    td = env.reset()
+    td["recurrent_state_h"] = torch.randn(td["recurrent_state_h"].shape)  # a history, and one world starting afresh
+    td["recurrent_state_c"] = torch.randn(td["recurrent_state_c"].shape)
+    td["is_init"][1] = True
+    with torch.no_grad():
+        expected = net.heatmap(td.clone())
+    out = HybridPlanner(net, m=1, h=1)(td.clone())
+    assert torch.equal(out["heatmap"], expected["heatmap"])
+    for key in (("next", "recurrent_state_h"), ("next", "recurrent_state_c")):
+        assert torch.equal(out[key], expected[key])
