@@ -2,14 +2,15 @@
 
 Usage:
     git worktree add /tmp/occrl-ref <commit>        # the code to compare against
-    python benchmarks/planner_speedup.py --reference /tmp/occrl-ref [--decisions 24] [--rounds 2]
+    python benchmarks/planner_speedup.py --reference /tmp/occrl-ref [--decisions 24] [--rounds 2] [--inference onnxruntime]
 
 Both sides take the same decisions (observations along scripted stage-2 episodes, one planner per
 m x h that sees them in episode order, as in an episode) in child processes on one core each,
 alternated side by side for ``--rounds`` rounds so that the machine's drift hits both alike. It
 prints, per m x h, the p50 and p95 decision time of each side and their ratio (this / reference),
 and whether both sides chose the same actions (they should, unless the reference predates a
-behaviour change).
+behaviour change). ``--inference onnxruntime`` runs this side's roll-outs on ONNX Runtime (the
+reference side always uses its default).
 """
 
 from __future__ import annotations
@@ -36,6 +37,7 @@ from occrl.planners import HybridPlanner
 from occrl.pretrained import load_pretrained
 
 decisions = int(sys.argv[1])
+options = {"inference": sys.argv[3]} if sys.argv[3] != "torch" else {}
 net = load_pretrained("occnet")
 obs, seed = [], 0
 while len(obs) < decisions:
@@ -46,7 +48,7 @@ while len(obs) < decisions:
 obs = obs[:decisions]
 out = {}
 for m, h in json.loads(sys.argv[2]):
-    planner = HybridPlanner(net, m=m, h=h, seed=0)
+    planner = HybridPlanner(net, m=m, h=h, seed=0, **options)
     times, actions = [], []
     for td in obs:
         t = time.perf_counter()
@@ -57,10 +59,15 @@ print(json.dumps(out))
 """
 
 
-def measure(root: Path, decisions: int) -> dict:
+def measure(root: Path, decisions: int, inference: str = "torch") -> dict:
     env = dict(os.environ, PYTHONPATH=str(root), OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
     proc = subprocess.run(
-        [sys.executable, "-c", CHILD, str(decisions), json.dumps(SIZES)], cwd=root, env=env, capture_output=True, text=True, check=False
+        [sys.executable, "-c", CHILD, str(decisions), json.dumps(SIZES), inference],
+        cwd=root,
+        env=env,
+        capture_output=True,
+        text=True,
+        check=False,
     )
     if proc.returncode != 0:
         raise SystemExit(f"the run in {root} failed:\n{proc.stderr[-3000:]}")
@@ -72,6 +79,7 @@ def main() -> None:
     parser.add_argument("--reference", required=True, help="a checkout of the code to compare against (e.g. a git worktree)")
     parser.add_argument("--decisions", type=int, default=24)
     parser.add_argument("--rounds", type=int, default=2)
+    parser.add_argument("--inference", choices=["torch", "onnxruntime"], default="torch", help="this side's roll-out inference")
     args = parser.parse_args()
     here = Path(__file__).resolve().parent.parent
     ref = Path(args.reference).resolve()
@@ -80,9 +88,12 @@ def main() -> None:
     runs: dict[str, list[dict]] = {"this": [], "reference": []}
     for r in range(args.rounds):
         for side, root in (("reference", ref), ("this", here)) if r % 2 == 0 else (("this", here), ("reference", ref)):
-            runs[side].append(measure(root, args.decisions))
+            runs[side].append(measure(root, args.decisions, args.inference if side == "this" else "torch"))
             print(f"round {r + 1}/{args.rounds}: {side} done", flush=True)
-    print(f"\n{args.decisions} decisions on stage-2 states x {args.rounds} rounds, one core per side; reference: {ref}")
+    print(
+        f"\n{args.decisions} decisions on stage-2 states x {args.rounds} rounds, one core per side; reference: {ref}; "
+        f"this side's inference: {args.inference}"
+    )
     print("| m x h | reference p50 / p95 (ms) | this p50 / p95 (ms) | ratio p50 | ratio p95 | same actions |")
     print("| --- | --- | --- | --- | --- | --- |")
     for m, h in SIZES:

@@ -109,6 +109,13 @@ def make_parser() -> argparse.ArgumentParser:
         default=0.0,
         help="hybrid planners: floor on the roll-out policy's standard deviation (default 0: the policy's own, as in the paper)",
     )
+    e.add_argument(
+        "--inference",
+        choices=["torch", "onnxruntime"],
+        default="torch",
+        help="hybrid planners: how the roll-outs call the network (onnxruntime: several times faster per call, equal to float "
+        "rounding, so a few decisions may differ; pip install onnx onnxruntime)",
+    )
     e.add_argument("--out", default=None, help="write the results as JSON")
     e.add_argument(
         "--format",

@@ -164,6 +164,12 @@ def run_eval(args: argparse.Namespace) -> int:
     from occrl.eval.methods import METHODS, PLANNERS
     from occrl.eval.runner import run_tasks, summarize
 
+    if args.inference != "torch" and (args.sweep or not (args.method or "").startswith("hybrid")):
+        print(
+            f"--inference applies to a single hybrid method (--method hybrid-...), not to {'a sweep' if args.sweep else repr(args.method)}",
+            file=sys.stderr,
+        )
+        return 2
     if args.rollout_min_scale:
         if args.sweep or not (args.method or "").startswith("hybrid"):
             print(
@@ -235,6 +241,7 @@ def run_eval(args: argparse.Namespace) -> int:
             ray_address=args.ray_address,
             world=args.world,
             rollout_min_scale=args.rollout_min_scale,
+            inference=args.inference,
         )
     finally:
         _stop_ray_if_used(args)
@@ -247,6 +254,7 @@ def run_eval(args: argparse.Namespace) -> int:
         "world": args.world,
         "first_seed": args.seed,
         **({"rollout_min_scale": args.rollout_min_scale} if args.rollout_min_scale else {}),
+        **({"inference": args.inference} if args.inference != "torch" else {}),
         **summarize(results),
         "episodes": [r.to_dict() for r in results],
     }

@@ -42,12 +42,15 @@ def _net(name: str, weights: str | Path | None):
     return load_weights(weights) if weights else load_pretrained(name)
 
 
-def make_method(name: str, weights: str | Path | None = None, seed: int = 0, rollout_min_scale: float = 0.0) -> Method:
+def make_method(
+    name: str, weights: str | Path | None = None, seed: int = 0, rollout_min_scale: float = 0.0, inference: str = "torch"
+) -> Method:
     """``hybrid-MxH`` / ``hybrid-lim-4x4`` (planner on the full net), ``greedy`` / ``stochastic``
     (net without heat-map head: mean / sampled action), ``stochastic-gen`` (full net, sampled),
     ``hierarchical`` (Alg. 3 with OMPL; literal Search), ``scripted`` (privileged). ``weights``
     overrides the shipped net. ``rollout_min_scale`` floors the spread of the hybrid planners'
-    roll-outs (:class:`~occrl.planners.HybridPlanner`; 0, the paper, for every other method).
+    roll-outs (:class:`~occrl.planners.HybridPlanner`; 0, the paper, for every other method);
+    ``inference`` is how their roll-outs call the network (``"torch"`` or ``"onnxruntime"``).
 
     Examples:
         >>> from occrl.eval.methods import make_method
@@ -61,6 +64,8 @@ def make_method(name: str, weights: str | Path | None = None, seed: int = 0, rol
     """
     if rollout_min_scale and name not in _HYBRID:
         raise ValueError(f"rollout_min_scale is a hybrid planner setting; {name!r} does not take it")
+    if inference != "torch" and name not in _HYBRID:
+        raise ValueError(f"inference is a hybrid planner setting; {name!r} does not take it")
     if name in _HYBRID:
         from occrl.planners import HybridPlanner
 
@@ -68,7 +73,7 @@ def make_method(name: str, weights: str | Path | None = None, seed: int = 0, rol
         net = _net("occnet", weights)
         return Method(
             name,
-            HybridPlanner(net, m=m, h=h, limited=limited, seed=seed, rollout_min_scale=rollout_min_scale),
+            HybridPlanner(net, m=m, h=h, limited=limited, seed=seed, rollout_min_scale=rollout_min_scale, inference=inference),
             [net.make_primer()],
             network=str(weights or "occnet"),
         )

@@ -92,11 +92,11 @@ def summarize(results: Sequence[EpisodeResult]) -> dict:
 _WORKER: dict = {}
 
 
-def _init_worker(method: str, weights, threads: int, rollout_min_scale: float = 0.0) -> None:
+def _init_worker(method: str, weights, threads: int, rollout_min_scale: float = 0.0, inference: str = "torch") -> None:
     from occrl.eval.methods import make_method
 
     torch.set_num_threads(threads)
-    _WORKER["method"] = make_method(method, weights, rollout_min_scale=rollout_min_scale)
+    _WORKER["method"] = make_method(method, weights, rollout_min_scale=rollout_min_scale, inference=inference)
 
 
 def _run_chunk(args) -> list[EpisodeResult]:
@@ -106,7 +106,15 @@ def _run_chunk(args) -> list[EpisodeResult]:
 
 
 def _run_tasks_ray(
-    method: str, weights, jobs: list, workers: int, address: str | None, bar, max_restarts: int = 2, rollout_min_scale: float = 0.0
+    method: str,
+    weights,
+    jobs: list,
+    workers: int,
+    address: str | None,
+    bar,
+    max_restarts: int = 2,
+    rollout_min_scale: float = 0.0,
+    inference: str = "torch",
 ) -> list:
     """Chunks on ``workers`` Ray actors (one CPU each); a chunk whose actor died runs again on a new
     actor (chunks are seeded by their tasks, so the repeat gives the same results)."""
@@ -125,7 +133,7 @@ def _run_tasks_ray(
 
                 path = Path(tempfile.mkdtemp()) / "weights.pt"
                 path.write_bytes(weights_blob)
-            _init_worker(method, path, 1, rollout_min_scale)
+            _init_worker(method, path, 1, rollout_min_scale, inference)
 
         def run(self, job):
             return _run_chunk(job)
@@ -178,14 +186,15 @@ def run_tasks(
     ray_address: str | None = None,
     world: str = "pymunk",
     rollout_min_scale: float = 0.0,
+    inference: str = "torch",
 ) -> list[EpisodeResult]:
     """Evaluate a named method on task seeds, in chunks of ``batch`` worlds spread over
     ``workers`` processes (``backend="local"``) or Ray actors (``backend="ray"``, a local runtime
     or the cluster at ``ray_address``). Results do not depend on ``workers`` or ``backend``
     (per-task wall time aside). ``world="mujoco"`` executes in the 3D MuJoCo env (the planners
     still plan in pymunk, recreated from its detections); ``num_objects=(low, high)`` draws each
-    task's object count from its seed. ``rollout_min_scale`` goes to the hybrid planners
-    (:func:`~occrl.eval.methods.make_method`). ``progress``: show a progress bar with an ETA
+    task's object count from its seed. ``rollout_min_scale`` and ``inference`` go to the hybrid
+    planners (:func:`~occrl.eval.methods.make_method`). ``progress``: show a progress bar with an ETA
     (``True``), none (``False``), or advance a ``tqdm`` bar the caller owns (a sweep's).
 
     Examples:
@@ -204,9 +213,11 @@ def run_tasks(
     results: list[list[EpisodeResult]] = [None] * len(chunks)
     jobs = [(stage, c, num_objects, noise, world) for c in chunks]
     if backend == "ray":
-        results = _run_tasks_ray(method, weights, jobs, max(1, workers), ray_address, bar, rollout_min_scale=rollout_min_scale)
+        results = _run_tasks_ray(
+            method, weights, jobs, max(1, workers), ray_address, bar, rollout_min_scale=rollout_min_scale, inference=inference
+        )
     elif workers <= 1:
-        _init_worker(method, weights, torch.get_num_threads(), rollout_min_scale)
+        _init_worker(method, weights, torch.get_num_threads(), rollout_min_scale, inference)
         for k, job in enumerate(jobs):
             results[k] = _run_chunk(job)
             bar.update(len(job[1]))
@@ -215,7 +226,10 @@ def run_tasks(
         from concurrent.futures import ProcessPoolExecutor, as_completed
 
         with ProcessPoolExecutor(
-            workers, mp_context=mp.get_context("spawn"), initializer=_init_worker, initargs=(method, weights, 1, rollout_min_scale)
+            workers,
+            mp_context=mp.get_context("spawn"),
+            initializer=_init_worker,
+            initargs=(method, weights, 1, rollout_min_scale, inference),
         ) as pool:
             futures = {pool.submit(_run_chunk, job): k for k, job in enumerate(jobs)}
             for f in as_completed(futures):

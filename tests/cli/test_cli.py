@@ -118,6 +118,22 @@ def test_rollout_min_scale_reaches_the_planner_and_the_json(tmp_path, capsys):
         assert not (tmp_path / "x").exists()
 
 
+def test_eval_inference_backend_is_recorded_and_checked(tmp_path, capsys):
+    pytest.importorskip("onnxruntime")
+    out = tmp_path / "onnx.json"
+    args = ["eval", "--method", "hybrid-2x2", "--stage", "1", "--objects", "1-1", "--tasks", "1", "--no-progress"]
+    assert main([*args, "--inference", "onnxruntime", "--out", str(out)]) == 0
+    assert json.loads(out.read_text())["inference"] == "onnxruntime"
+    for bad, message in (
+        (["--method", "scripted", "--inference", "onnxruntime"], "applies to a single hybrid method"),
+        (["--method", "hybrid-4x4", "--inference", "tensorrt"], "invalid choice: 'tensorrt'"),
+    ):
+        capsys.readouterr()
+        assert main(["eval", *bad, "--tasks", "1", "--no-progress", "--out", str(tmp_path / "x")]) == 2
+        assert message in capsys.readouterr().err
+        assert not (tmp_path / "x").exists()
+
+
 def test_version(capsys):
     import occrl
 
