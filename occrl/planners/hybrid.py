@@ -151,7 +151,6 @@ class HybridPlanner(TensorDictModuleBase):
             raise ValueError(f"inference must be one of {INFERENCE_BACKENDS}, got {inference!r}")
         self.inference = inference
         self.stepper = NetworkStepper(self.net, self.rollout_min_scale, backend=inference)
-        self.heatmap_head = net.heatmap_head.module[0].module  # "belief" -> "heatmap_logits"
         self.decisions: list[Decision] = []
         self.in_keys = ["pixels", "is_init", "recurrent_state_h", "recurrent_state_c", *OBSERVATION_KEYS]
         self.out_keys = ["action", ("next", "recurrent_state_h"), ("next", "recurrent_state_c"), "heatmap"]
@@ -174,7 +173,7 @@ class HybridPlanner(TensorDictModuleBase):
         belief, (next_h, next_c) = self.stepper.lstm(
             embed.unsqueeze(1), (hidden_h.transpose(0, 1).contiguous(), hidden_c.transpose(0, 1).contiguous())
         )
-        heatmap = torch.sigmoid(self.heatmap_head(belief[:, -1]))
+        heatmap = torch.sigmoid(self.net.heatmap_head.module[0].module(belief[:, -1]))  # "belief" -> "heatmap_logits"
         heat = heatmap[:, 0].numpy()
         actions = []
         for b in range(flat.shape[0]):
