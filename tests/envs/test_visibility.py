@@ -56,3 +56,25 @@ def test_side_wall_hides_objects_from_a_camera_outside_the_shelf():
 
 def test_object_containing_the_camera_is_not_visible():
     assert visible_fractions([box(0.0, -0.1, 0.05)], CAMERA)[0] == 0.0
+
+
+def test_batched_visibility_equals_the_per_camera_function_bit_for_bit():
+    """Many cameras at once (the planner's roll-out worlds) give exactly the per-camera values,
+    whatever the other cameras' object counts, with a hidden object and with empty worlds."""
+    from occrl.envs import Scene, ShelfWorld
+    from occrl.envs.observation import WALLS_PADDED
+    from occrl.envs.visibility import visible_fractions_batch
+
+    rng = np.random.default_rng(0)
+    worlds = [ShelfWorld(Scene.sample(stage=1 + s % 3, seed=s)) for s in range(24)]
+    objects = [w.object_world_padded() for w in worlds] + [np.zeros((0, 8, 2))]
+    poses = np.array([[rng.uniform(-0.3, 0.3), rng.uniform(-0.15, 0.3), rng.uniform(-0.8, 0.8)] for _ in objects])
+    hidden = [None] * len(objects)
+    hidden[3] = 0
+    batch = visible_fractions_batch(objects, poses, WALLS_PADDED, hidden=hidden)
+    for k, (objs, pose, got) in enumerate(zip(objects, poses, batch)):
+        if k == 3:  # the hidden object reads 0 and hides nothing: as if it were not there
+            rest = visible_fractions(objs[1:], pose, WALLS_PADDED)
+            assert got[0] == 0.0 and np.array_equal(got[1:], rest)
+        else:
+            assert np.array_equal(got, visible_fractions(objs, pose, WALLS_PADDED)) if len(objs) else got.shape == (0,)
