@@ -12,8 +12,8 @@ Steps:
 1. **Visibility** (:func:`world_visible_fractions`, :func:`worlds_visible_fractions` for many
    worlds in one vectorised computation): the fraction of each object's angular extent
    the gripper camera sees, objects and shelf walls occluding; an object the world marks as
-   unseen while held (``world.unseen_while_held``, set only for recreated worlds) reads 0 while
-   the gripper holds it.
+   unseen while held (``world.unseen_while_held``, set only for recreated worlds) is transparent
+   to the camera while the gripper holds it (neither seen nor hiding anything).
 2. **Detections** (:func:`detection_arrays`): objects more than 50 % visible fill their slot with
    type, pose and shape (float32, as the observation stores them); the gripper and the target's
    type and shape are always known.

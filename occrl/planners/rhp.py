@@ -278,7 +278,7 @@ def rhp_batched(
         h[idx], c[idx] = h_new, c_new
     if alive.any():
         idx = torch.from_numpy(np.flatnonzero(alive))
-        ret[alive] += discount * stepper.value({"belief": out["belief"][idx]}).numpy()
+        ret[alive] += discount * stepper.value({key: value[idx] for key, value in out.items()}).numpy()
     return _finish(ret.reshape(R, m), first.reshape(R, m, 4), steps, paths.reshape(R, m, depth + 1, 3))
 
 
