@@ -45,15 +45,16 @@ def pad_polygons(polygons: Sequence[np.ndarray], size: int | None = None) -> np.
 
 
 def _next_vertex(polys: np.ndarray) -> np.ndarray:
-    """Each vertex's successor (np.roll(polys, -1, axis=1), without roll's overhead)."""
-    return np.concatenate([polys[:, 1:], polys[:, :1]], axis=1)
+    """Each vertex's successor (np.roll(polys, -1, axis=-2), without roll's overhead)."""
+    return np.concatenate([polys[..., 1:, :], polys[..., :1, :]], axis=-2)
 
 
 def angular_extents(polys: np.ndarray, cam: np.ndarray, with_tangents: bool = False):
     """Bearing interval ``[lo, hi]`` of each padded polygon seen from ``cam`` = (x, y, heading),
     in radians relative to the camera axis, and whether the camera is inside the polygon.
     With ``with_tangents`` also the indices of the vertices at ``lo`` and ``hi`` (the
-    silhouette vertices, where shadows start).
+    silhouette vertices, where shadows start). Many cameras at once: ``polys`` (B, P, V, 2) and
+    ``cam`` (B, 3) give (B, P) results, each camera's bit for bit its own.
 
     Examples:
         >>> import numpy as np
@@ -63,12 +64,13 @@ def angular_extents(polys: np.ndarray, cam: np.ndarray, with_tangents: bool = Fa
         >>> np.degrees([lo[0], hi[0]]).round(1).tolist(), inside.tolist()
         ([-18.4, 18.4], [False, True])
     """
-    cx, cy, th = (float(v) for v in cam)
+    cam = np.asarray(cam, dtype=float)
+    cx, cy, th = cam[..., 0, None, None], cam[..., 1, None, None], cam[..., 2, None]
     dx, dy = polys[..., 0] - cx, polys[..., 1] - cy
     mx, my = dx.mean(-1, keepdims=True), dy.mean(-1, keepdims=True)  # towards the polygon's centre
     # bearings relative to that direction: one arctan2 of (cross, dot), no wrapping needed
     rel = np.arctan2(mx * dy - my * dx, mx * dx + my * dy)
-    centre = np.arctan2(my[:, 0], mx[:, 0]) - (th + math.pi / 2)  # relative to the camera axis (+y)
+    centre = np.arctan2(my[..., 0], mx[..., 0]) - (th + math.pi / 2)  # relative to the camera axis (+y)
     centre = (centre + math.pi) % (2 * math.pi) - math.pi
     lo = centre + rel.min(-1)
     hi = centre + rel.max(-1)
@@ -165,18 +167,8 @@ def visible_fractions_batch(
         if hidden[b] is not None:
             inert[b, hidden[b]] = True
     cams = np.asarray(gripper_poses, dtype=float).reshape(B, 3)
-    # angular extents of every polygon of every camera (angular_extents, broadcast over cameras)
-    cx, cy, th = cams[:, 0, None, None], cams[:, 1, None, None], cams[:, 2, None]
-    dx, dy = polys[..., 0] - cx, polys[..., 1] - cy
-    mx, my = dx.mean(-1, keepdims=True), dy.mean(-1, keepdims=True)
-    rel = np.arctan2(mx * dy - my * dx, mx * dx + my * dy)
-    centre = np.arctan2(my[..., 0], mx[..., 0]) - (th + math.pi / 2)
-    centre = (centre + math.pi) % (2 * math.pi) - math.pi
-    lo = centre + rel.min(-1)
-    hi = centre + rel.max(-1)
-    nxt = np.concatenate([polys[:, :, 1:], polys[:, :, :1]], axis=2)
-    ex, ey = nxt[..., 0] - polys[..., 0], nxt[..., 1] - polys[..., 1]
-    inside = np.all(ex * -dy - ey * -dx >= 0, axis=-1) | inert
+    lo, hi, inside = angular_extents(polys, cams)
+    inside = inside | inert
     half = fov / 2
     clo, chi = np.maximum(lo, -half), np.minimum(hi, half)
     in_view = (chi > clo) & ~inside
@@ -192,9 +184,10 @@ def visible_fractions_batch(
     for b, m in enumerate(mids_of):
         mids[b, : len(m)] = m
     # one ray per interval against every polygon (Cyrus-Beck clipping, broadcast over cameras)
+    cx, cy, th = cams[:, 0, None, None], cams[:, 1, None, None], cams[:, 2, None]
     phi = mids + th + math.pi / 2
     rdx, rdy = np.cos(phi), np.sin(phi)  # (B, K)
-    e = nxt - polys
+    e = _next_vertex(polys) - polys
     nx, ny = e[..., 1], -e[..., 0]  # (B, P, V)
     h = nx * polys[..., 0] + ny * polys[..., 1]
     nc = nx * cx + ny * cy
