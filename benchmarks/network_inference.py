@@ -27,25 +27,21 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import torch
 from tensordict import TensorDict
 
-from occrl.planners.rhp import NetworkStepper
+from occrl.planners.rhp import NetworkStepper, StepGraph
 from occrl.pretrained import load_pretrained
 
 BATCHES = (1, 4, 12)
 
 
-class StepModule(torch.nn.Module):
-    """encoder -> one LSTM step -> policy head, as plain tensors in and out (for tracing/export)."""
+class PolicyStep(torch.nn.Module):
+    """The roll-outs' call without the value head (the planner asks for values only at the horizon)."""
 
-    def __init__(self, net) -> None:
+    def __init__(self, graph: StepGraph) -> None:
         super().__init__()
-        self.encoder = copy.deepcopy(net.encoder.module)
-        self.lstm = copy.deepcopy(net.lstm.lstm)
-        self.head = copy.deepcopy(net.actor.module[0].module)
+        self.graph = graph
 
     def forward(self, pixels, h, c):
-        belief, (h2, c2) = self.lstm(self.encoder(pixels).unsqueeze(1), (h, c))
-        loc, scale = self.head(belief[:, -1])
-        return loc, scale, h2, c2
+        return self.graph.step(pixels, h, c)
 
 
 def timed(fn, calls: int) -> float:
@@ -66,7 +62,7 @@ def main() -> None:
     net = load_pretrained("occnet")
     stepper = NetworkStepper(net)
     head = net.actor.module[0]
-    module = StepModule(net).eval()
+    module = PolicyStep(StepGraph(copy.deepcopy(net))).eval()  # a copy: tracing and compiling leave the planner's net alone
     paths: dict[str, dict[int, tuple[float, float]]] = {}
 
     def add(name: str, batch: int, fn, loc_of, reference) -> None:
@@ -99,16 +95,16 @@ def main() -> None:
             with torch.no_grad():
                 return module(pixels, hl, cl)
 
-        add("torch modules, no_grad", batch, eager_no_grad, lambda out: out[0], reference)
+        add("torch modules, no_grad", batch, eager_no_grad, lambda out: out[1], reference)
         add("torch modules, inference_mode (planner)", batch, lambda: stepper.step(pixels, h, c), lambda out: out[0]["loc"], reference)
         with torch.no_grad():
             frozen = torch.jit.freeze(torch.jit.trace(module, (pixels, hl, cl)))
-        add("TorchScript, traced + frozen", batch, lambda: frozen(pixels, hl, cl), lambda out: out[0], reference)
+        add("TorchScript, traced + frozen", batch, lambda: frozen(pixels, hl, cl), lambda out: out[1], reference)
         try:
             compiled = torch.compile(module, dynamic=False)
             with torch.inference_mode():
                 compiled(pixels, hl, cl)  # compile outside the timing
-            add("torch.compile", batch, lambda: compiled(pixels, hl, cl), lambda out: out[0], reference)
+            add("torch.compile", batch, lambda: compiled(pixels, hl, cl), lambda out: out[1], reference)
         except Exception as err:  # no C compiler, unsupported platform
             print(f"torch.compile unavailable: {type(err).__name__}: {str(err)[:120]}")
         if ort is not None:
@@ -119,7 +115,7 @@ def main() -> None:
                     (pixels, hl, cl),
                     onnx_file,
                     input_names=["pixels", "h", "c"],
-                    output_names=["loc", "scale", "h2", "c2"],
+                    output_names=["belief", "loc", "scale", "h_next", "c_next"],
                     dynamic_axes={"pixels": {0: "b"}, "h": {1: "b"}, "c": {1: "b"}},
                     dynamo=False,
                 )

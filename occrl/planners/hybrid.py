@@ -169,8 +169,8 @@ class HybridPlanner(TensorDictModuleBase):
         hidden_c[is_init] = 0.0
         # the real observation advances the LSTM over the real history (net.heatmap's modules,
         # called directly: the same values as the TensorDict modules, tested)
-        embed = self.stepper.encoder(flat.get("pixels"))
-        belief, (next_h, next_c) = self.stepper.lstm(
+        embed = self.stepper.graph.encoder(flat.get("pixels"))
+        belief, (next_h, next_c) = self.stepper.graph.lstm(
             embed.unsqueeze(1), (hidden_h.transpose(0, 1).contiguous(), hidden_c.transpose(0, 1).contiguous())
         )
         heatmap = torch.sigmoid(self.net.heatmap_head.module[0].module(belief[:, -1]))  # "belief" -> "heatmap_logits"

@@ -26,7 +26,7 @@ from occrl.envs.pymunk2d.world import ShelfWorld
 from occrl.modules.occnet import OccNet
 from occrl.planners.recreate import RecreatedState, WorldPool, make_world
 
-__all__ = ["RHPResult", "rhp_batched", "rhp_sequential", "render_pixels", "NetworkStepper", "INFERENCE_BACKENDS"]
+__all__ = ["RHPResult", "rhp_batched", "rhp_sequential", "render_pixels", "NetworkStepper", "StepGraph", "INFERENCE_BACKENDS"]
 
 
 def render_pixels(worlds: Sequence[ShelfWorld]) -> torch.Tensor:
@@ -50,18 +50,35 @@ def render_pixels(worlds: Sequence[ShelfWorld]) -> torch.Tensor:
 INFERENCE_BACKENDS = ("torch", "onnxruntime")
 
 
-class _StepGraph(torch.nn.Module):
-    """encoder -> one LSTM step -> policy and value heads on plain tensors (exported to ONNX)."""
+class StepGraph(torch.nn.Module):
+    """One LSTM step of an OccNet on plain tensors: encoder, LSTM, policy head (:meth:`step`) and
+    value head (``forward``, what is exported to ONNX). It holds the net's own modules.
+
+    Examples:
+        >>> import torch
+        >>> from occrl.modules import make_occnet
+        >>> from occrl.planners.rhp import StepGraph
+        >>> graph = StepGraph(make_occnet("paper"))
+        >>> state = torch.zeros(1, 2, 128)  # (layers, batch, hidden): the LSTM's layout
+        >>> [x.shape[-1] for x in graph(torch.zeros(2, 3, 64, 64), state, state)]
+        [128, 4, 4, 2, 128, 128]
+    """
 
     def __init__(self, net: OccNet) -> None:
         super().__init__()
         self.encoder, self.lstm = net.encoder.module, net.lstm.lstm
         self.policy_head, self.value_head = net.actor.module[0].module, net.critic.module
 
-    def forward(self, pixels: torch.Tensor, h: torch.Tensor, c: torch.Tensor):
+    def step(self, pixels: torch.Tensor, h: torch.Tensor, c: torch.Tensor):
+        """LSTMModule's one-step path (a time dimension of 1; state as (layers, B, H)) and the
+        policy head: belief, loc, scale and the state after the images."""
         belief, (h_next, c_next) = self.lstm(self.encoder(pixels).unsqueeze(1), (h, c))
         belief = belief[:, -1]
         loc, scale = self.policy_head(belief)
+        return belief, loc, scale, h_next, c_next
+
+    def forward(self, pixels: torch.Tensor, h: torch.Tensor, c: torch.Tensor):
+        belief, loc, scale, h_next, c_next = self.step(pixels, h, c)
         return belief, loc, scale, self.value_head(belief).squeeze(-1), h_next, c_next
 
 
@@ -93,10 +110,7 @@ class NetworkStepper:
         if backend not in INFERENCE_BACKENDS:
             raise ValueError(f"backend must be one of {INFERENCE_BACKENDS}, got {backend!r}")
         self.net = net
-        self.encoder = net.encoder.module  # "pixels" -> "embed"
-        self.lstm = net.lstm.lstm  # the torch LSTM inside TorchRL's LSTMModule
-        self.policy_head = net.actor.module[0].module  # "belief" -> "loc", "scale"
-        self.value_head = net.critic.module  # "belief" -> "state_value"
+        self.graph = StepGraph(net)  # the net's own torch modules
         self.min_scale = float(min_scale)  # floor on the roll-outs' policy spread (0: the policy's own)
         self.backend = backend
         self.session = _onnx_session(net) if backend == "onnxruntime" else None
@@ -121,10 +135,7 @@ class NetworkStepper:
             belief, loc, scale, value, h_next, c_next = (torch.from_numpy(x) for x in self.session.run(None, feed))
             out = {"belief": belief, "loc": loc, "scale": scale, "value": value}
         else:
-            # LSTMModule's one-step path: a time dimension of 1
-            belief, (h_next, c_next) = self.lstm(self.encoder(pixels).unsqueeze(1), (h, c))
-            belief = belief[:, -1]
-            loc, scale = self.policy_head(belief)
+            belief, loc, scale, h_next, c_next = self.graph.step(pixels, h, c)
             out = {"belief": belief, "loc": loc, "scale": scale}
         if self.min_scale > 0:
             out["scale"] = out["scale"].clamp(min=self.min_scale)
@@ -135,7 +146,7 @@ class NetworkStepper:
         """(B,) the value head on ``out["belief"]``."""
         if "value" in out:
             return out["value"]
-        return self.value_head(out["belief"]).squeeze(-1)
+        return self.graph.value_head(out["belief"]).squeeze(-1)
 
 
 def _onnx_session(net: OccNet):
@@ -148,7 +159,7 @@ def _onnx_session(net: OccNet):
     import io
     import warnings
 
-    graph = _StepGraph(net).eval()
+    graph = StepGraph(net).eval()
     pixels = torch.zeros(2, 3, net.config.image_size, net.config.image_size)
     state = torch.zeros(net.lstm.lstm.num_layers, 2, net.lstm.lstm.hidden_size)
     buffer = io.BytesIO()
