@@ -121,13 +121,14 @@ def worlds_visible_fractions(worlds: Sequence, poses: Sequence[np.ndarray | None
     return visible_fractions_batch(objects, cameras, WALLS_PADDED, hidden=hidden)
 
 
-def detection_arrays(worlds: Sequence, fractions: Sequence[np.ndarray]) -> dict[str, np.ndarray]:
+def detection_arrays(worlds: Sequence, fractions: Sequence[np.ndarray], poses: Sequence[np.ndarray] | None = None) -> dict[str, np.ndarray]:
     """The perception part of an observation of each world, as the observation stores it.
 
     Args:
         worlds: B worlds offering ``gripper_pose()``, ``object_poses()``, ``opening``, ``closed``,
             ``type_ids``, ``padded_vertices``, ``num_vertices``, ``target_index`` (-1: no target).
         fractions: each world's visible fractions (:func:`world_visible_fractions`, or a camera's).
+        poses: each world's ``object_poses()`` when the caller has them already.
 
     Returns:
         ``gripper_pose`` (B, 3), ``gripper_opening`` (B, 1), ``gripper_closed`` (B, 1),
@@ -172,7 +173,7 @@ def detection_arrays(worlds: Sequence, fractions: Sequence[np.ndarray]) -> dict[
         out["vertices"][i, :n] = np.where(d[:, None, None], w.padded_vertices, 0.0)
         out["num_vertices"][i, :n] = np.where(d, w.num_vertices, 0)
         out["type_id"][i, :n] = np.where(d, w.type_ids, 0)
-        out["pose"][i, :n] = np.where(d[:, None], w.object_poses(), 0.0)
+        out["pose"][i, :n] = np.where(d[:, None], w.object_poses() if poses is None else poses[i], 0.0)
     return out
 
 

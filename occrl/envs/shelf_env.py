@@ -300,12 +300,13 @@ class ShelfEnv(EnvBase):
         target_pose = np.zeros((B, 3), np.float32)
         target_held = np.zeros((B, 1), bool)
         penetration = np.zeros((B, 1), np.float32)
-        fractions = []
+        fractions, all_poses = [], []
         for i, w in enumerate(self.worlds):
             n = w.num_objects
             poses = w.object_poses()
             f = self._visible_fractions(w, poses)
             fractions.append(f)
+            all_poses.append(poses)
             present[i, :n] = True
             true_pose[i, :n] = poses
             true_verts[i, :n] = w.padded_vertices
@@ -316,7 +317,7 @@ class ShelfEnv(EnvBase):
             target_pose[i] = poses[t]
             target_held[i, 0] = w.held == t
             penetration[i, 0] = w.penetration
-        a = detection_arrays(self.worlds, fractions)  # the one perception pipeline (occrl.envs.observation)
+        a = detection_arrays(self.worlds, fractions, all_poses)  # the one perception pipeline (occrl.envs.observation)
         t = torch.from_numpy
         batch = self.batch_size
 
