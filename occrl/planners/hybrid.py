@@ -158,6 +158,11 @@ class HybridPlanner(TensorDictModuleBase):
     def reseed(self, seed: int) -> None:
         self.generator.manual_seed(int(seed))
 
+    def sync_weights(self) -> None:
+        """Plan with the network's current weights after they changed in place (training): needed
+        with ``inference="onnxruntime"``, which runs an export of the weights at construction."""
+        self.stepper.sync_weights()
+
     @torch.no_grad()
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
         require_recurrent_state(tensordict, "HybridPlanner")

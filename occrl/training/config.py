@@ -16,6 +16,7 @@ SETTING_CHOICES: dict[str, tuple[str, ...]] = {
     "optimizer": ("rmsprop", "adam"),
     "imitation_teacher": ("scripted", "hybrid", "hybrid-acting", "hierarchical"),
     "promotion": ("learner", "hybrid"),
+    "teacher_inference": ("torch", "onnxruntime"),
 }
 
 
@@ -96,6 +97,11 @@ class TrainConfig:
     "hybrid-acting" (that planner acts and labels, so the value learns the planner's own returns;
     collector "single") or "hierarchical" (the OMPL hierarchical planner, observations only, acts in
     a share beta of the episodes and labels every step of the others; collector "single")."""
+    teacher_inference: str = "torch"
+    """Network inference of the hybrid-planner teachers ("hybrid", "hybrid-acting"): "torch" or
+    "onnxruntime" (pip install onnx onnxruntime; ~1.5x the labels per second, the same network to
+    float rounding, re-exported after every update). Like the device, it changes rounding only: a
+    run may resume under the other. Promotion checks always plan with torch, as evaluations do."""
     teacher_label_kinds: str = "all"
     """Which of the "hierarchical" teacher's steps are labels: "all", or comma-separated action kinds
     (occrl.baselines.hierarchical.ACTION_KINDS), e.g. "reach,extract": the teacher teaches the

@@ -153,7 +153,7 @@ def label_with_expert(data: TensorDictBase, expert: ScriptedRetriever) -> Tensor
     return data
 
 
-def label_with_planner(data: TensorDictBase, net, seed: int = 0, m: int = 4, h: int = 4) -> TensorDictBase:
+def label_with_planner(data: TensorDictBase, net, seed: int = 0, m: int = 4, h: int = 4, inference: str = "torch") -> TensorDictBase:
     """Write ``"expert_action"``: the hybrid m x h planner's decision on every step of a collected
     batch, each from the step's own observation and stored LSTM state (expert iteration: the
     planner improves on the network, the network imitates the planner; no privileged keys).
@@ -169,7 +169,7 @@ def label_with_planner(data: TensorDictBase, net, seed: int = 0, m: int = 4, h: 
     """
     from occrl.planners import HybridPlanner
 
-    planner = HybridPlanner(net, m=m, h=h, seed=seed)
+    planner = HybridPlanner(net, m=m, h=h, seed=seed, inference=inference)
     flat = data.reshape(-1)
     labels = planner(flat.select(*planner.in_keys).copy()).get("action")
     data.set("expert_action", labels.reshape(*data.shape, -1))

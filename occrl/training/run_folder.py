@@ -29,7 +29,8 @@ METRICS = "metrics.jsonl"
 
 # settings that change where frames are computed but not which: a run may resume under another one
 RUNTIME_SETTINGS = {"collector": {"multi", "ray"}}
-MACHINE_SETTINGS = ("device",)  # a run resumes on any device
+# a run resumes on any device and teacher inference (they change float rounding, not the method)
+MACHINE_SETTINGS = ("device", "teacher_inference")
 
 
 def complete_row(line: str) -> bool:

@@ -33,6 +33,7 @@ from occrl.envs.episodes import run_episodes, task_scenes
 from occrl.modules import make_occnet
 from occrl.objectives import compute_advantages
 from occrl.planners import HybridPlanner
+from occrl.planners.rhp import INFERENCE_BACKENDS
 from occrl.modules.weights import load_weights, save_weights
 from occrl.training.checkpoint import load_checkpoint, save_checkpoint
 from occrl.training.collection import TrainingCollector
@@ -120,6 +121,8 @@ class Trainer:
             )
         if config.imitation_teacher not in IMITATION_TEACHERS:
             raise ValueError(f"imitation_teacher must be one of {IMITATION_TEACHERS}, got {config.imitation_teacher!r}")
+        if config.teacher_inference not in INFERENCE_BACKENDS:
+            raise ValueError(f"teacher_inference must be one of {INFERENCE_BACKENDS}, got {config.teacher_inference!r}")
         if config.imitation_teacher in ("hybrid", "hybrid-acting") and not config.heatmap:
             raise ValueError(f"imitation_teacher={config.imitation_teacher!r} needs the heat-map head (the hybrid planner uses it)")
         if config.imitation_teacher in ("hybrid-acting", "hierarchical") and config.collector != "single":
@@ -167,7 +170,7 @@ class Trainer:
         self.train_seconds = 0.0
         # the hybrid-acting teacher plans on the live network; planners are reseeded every iteration
         if config.imitation_teacher == "hybrid-acting":
-            self.expert = HybridPlanner(self.acting_net, m=4, h=4, seed=self.seed)
+            self.expert = HybridPlanner(self.acting_net, m=4, h=4, seed=self.seed, inference=config.teacher_inference)
         elif config.imitation_teacher == "hierarchical":
             from occrl.baselines.hierarchical import HierarchicalPlanner  # needs OMPL
 
@@ -305,6 +308,8 @@ class Trainer:
             self.collection.policy.beta = beta
         if hasattr(self.expert, "reseed"):  # the planners
             self.expert.reseed(it_seed)
+        if isinstance(self.expert, HybridPlanner):  # it plans on the weights of this iteration
+            self.expert.sync_weights()
         if hasattr(self.expert, "reset"):  # teachers with an episode memory
             self.expert.reset()
         return self.collection.next_batch(it_seed)
@@ -351,7 +356,7 @@ class Trainer:
                 data = self._collect()
                 t_collect = time.time() - t0
                 if phase == "imitation" and c.imitation_teacher == "hybrid":
-                    label_with_planner(data, self.acting_net, seed=self.seed * 1_000_003 + self.iteration)
+                    label_with_planner(data, self.acting_net, seed=self.seed * 1_000_003 + self.iteration, inference=c.teacher_inference)
                 elif phase == "imitation" and c.imitation_teacher == "hybrid-acting":
                     data.set("expert_action", data.get("action").clone())  # the planner acted
                 elif c.imitation_teacher == "hierarchical":

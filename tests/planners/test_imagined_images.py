@@ -176,6 +176,28 @@ def test_onnxruntime_stepper_agrees_with_torch_to_float_rounding():
         HybridPlanner(net, inference="tensorrt")
 
 
+def test_onnxruntime_stepper_takes_up_changed_weights_on_sync():
+    """Training changes the weights in place: the ONNX session runs the old ones until synced."""
+    pytest.importorskip("onnxruntime")
+    from occrl.modules import make_occnet
+    from occrl.planners.rhp import NetworkStepper
+
+    torch.manual_seed(0)
+    net = make_occnet("paper").eval()
+    stepper = NetworkStepper(net, backend="onnxruntime")
+    g = torch.Generator().manual_seed(1)
+    pixels, h = torch.rand(2, 3, 64, 64, generator=g), torch.zeros(2, 1, 128)
+    before = stepper.step(pixels, h, h)[0]["loc"]
+    with torch.no_grad():
+        for param in net.actor.parameters():  # an "update"
+            param.add_(0.05 * torch.randn(param.shape, generator=g))
+    assert torch.equal(stepper.step(pixels, h, h)[0]["loc"], before)  # stale until synced
+    stepper.sync_weights()
+    after = NetworkStepper(net).step(pixels, h, h)[0]["loc"]
+    assert (after - before).abs().max() > 1e-2
+    torch.testing.assert_close(stepper.step(pixels, h, h)[0]["loc"], after, atol=1e-4, rtol=1e-4)
+
+
 def test_hybrid_planner_advances_the_lstm_as_the_tensordict_modules_do():
     from occrl.planners import HybridPlanner
     from occrl.pretrained import load_pretrained

@@ -60,3 +60,23 @@ def test_trainer_with_the_planner_acting(tmp_path):
     assert torch.isfinite(torch.tensor(row["loss_imitation"])) and torch.isfinite(torch.tensor(row["loss_critic"]))
     with pytest.raises(ValueError, match="needs collector 'single'"):
         Trainer(get_train_config("tiny", imitation_teacher="hybrid-acting", collector="multi"), tmp_path / "b", seed=0, progress=False)
+
+
+def test_hybrid_acting_teacher_on_onnxruntime_plans_on_the_updated_weights(tmp_path):
+    """teacher_inference="onnxruntime": the acting planner's ONNX export follows the updates."""
+    pytest.importorskip("onnxruntime")
+    from occrl.planners.rhp import NetworkStepper
+
+    cfg = get_train_config(
+        "tiny", imitation_iters=5, imitation_teacher="hybrid-acting", collector="single", teacher_inference="onnxruntime"
+    )
+    tr = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False)
+    assert tr.expert.inference == "onnxruntime"
+    tr.train(iterations=2)
+    tr._collect()  # syncs the planner to the weights after the second update
+    pixels, h = torch.rand(3, 3, 64, 64, generator=torch.Generator().manual_seed(0)), torch.zeros(3, 1, 128)
+    onnx, eager = tr.expert.stepper.step(pixels, h, h)[0], NetworkStepper(tr.net).step(pixels, h, h)[0]
+    torch.testing.assert_close(onnx["loc"], eager["loc"], atol=1e-4, rtol=1e-4)
+    tr.close()
+    with pytest.raises(ValueError, match="teacher_inference must be one of"):
+        Trainer(get_train_config("tiny", teacher_inference="tensorrt"), tmp_path / "b", seed=0, progress=False)
