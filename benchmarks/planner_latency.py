@@ -2,10 +2,13 @@
 
 Usage:
     python benchmarks/planner_latency.py [--decisions 30] [--weights PATH] [--physics-change]
+                                         [--worlds-together [--inference onnxruntime]]
 
 Decisions are taken on observations from stage-2 episodes (the scripted retriever drives, so the
 states are realistic; the target is often hidden, giving up to 3 heat-map roots). Uses the
 shipped network when present, else ``--weights``, else an untrained paper net (says which).
+``--worlds-together`` only compares batches of 8 worlds planned together
+(``HybridPlanner.decide_many``) with the same worlds decided one at a time.
 ``--physics-change`` only prints 4x4 decision times with the default physics and with occrl
 0.1.0's (``LEGACY_PHYSICS``) in the planner's imagined worlds, alternated in rounds in this run.
 """
@@ -60,6 +63,8 @@ def main() -> None:
     parser.add_argument("--decisions", type=int, default=30)
     parser.add_argument("--weights", default=None)
     parser.add_argument("--physics-change", action="store_true", help="4x4 decisions with the default and the 0.1.0 physics")
+    parser.add_argument("--worlds-together", action="store_true", help="only: 8 worlds planned together against one at a time")
+    parser.add_argument("--inference", default="torch", choices=("torch", "onnxruntime"), help="the planners' network (--worlds-together)")
     args = parser.parse_args()
     torch.set_num_threads(1)
     net, name = load_net(args.weights)
@@ -67,6 +72,9 @@ def main() -> None:
     print(f"network: {name}; {len(obs)} decisions on stage-2 states; one core")
     if args.physics_change:
         physics_change(net, obs)
+        return
+    if args.worlds_together:
+        worlds_together(net, obs, inference=args.inference)
         return
     for m, h in ((2, 2), (4, 4), (6, 6)):
         planner = HybridPlanner(net, m=m, h=h, seed=0)
@@ -120,6 +128,35 @@ def physics_change(net, obs, rounds: int = 2) -> None:
         print(f"hybrid 4x4, {label}: p50 {np.percentile(t, 50):6.1f} ms, p95 {np.percentile(t, 95):6.1f} ms")
     new, old = times["default physics"], times["0.1.0 physics"]
     print(f"ratio p50 {np.percentile(new, 50) / np.percentile(old, 50):.2f}x, p95 {np.percentile(new, 95) / np.percentile(old, 95):.2f}x")
+
+
+def worlds_together(net, obs, worlds: int = 8, rounds: int = 3, inference: str = "torch") -> None:
+    """A batch of ``worlds`` observations (as a training collector or a batched evaluation has
+    them): one planner call deciding them together (``HybridPlanner.decide_many``, one RHP over
+    every world's roots) against deciding them one world at a time, alternated in rounds."""
+    import torch
+
+    batches = [torch.cat(obs[i : i + worlds]) for i in range(0, len(obs) - worlds + 1, worlds)]
+    spent = {"together": 0.0, "one at a time": 0.0}
+    same = total = 0
+    for r in range(rounds):
+        together = HybridPlanner(net, m=4, h=4, seed=r, inference=inference, batch_worlds=True)
+        alone = HybridPlanner(net, m=4, h=4, seed=r, inference=inference)
+        for td in batches:
+            t = time.perf_counter()
+            a = together(td.clone())["action"]
+            spent["together"] += time.perf_counter() - t
+            t = time.perf_counter()
+            b = torch.cat([alone(td[i : i + 1].clone())["action"] for i in range(td.shape[0])])
+            spent["one at a time"] += time.perf_counter() - t
+            same += int(torch.isclose(a, b, atol=1e-5).all(-1).sum())
+            total += td.shape[0]
+    n = total
+    print(
+        f"4x4 ({inference}), batches of {worlds} worlds: together {1e3 * spent['together'] / n:.1f} ms vs one at a time "
+        f"{1e3 * spent['one at a time'] / n:.1f} ms per world's decision: {spent['one at a time'] / spent['together']:.2f}x; "
+        f"same action in {same}/{n}"
+    )
 
 
 def floor(net, obs) -> None:

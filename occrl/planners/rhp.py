@@ -214,6 +214,13 @@ class RHPResult:
     steps: int  # world steps simulated
     paths: np.ndarray | None = None  # (R, m, h + 1, 3) gripper poses along each roll-out, NaN after its end
 
+    def rows(self, roots: slice) -> RHPResult:
+        """The result of some of the roots (one world's, when several worlds planned together);
+        ``steps`` counts their roll-outs' steps."""
+        paths = None if self.paths is None else self.paths[roots]
+        steps = self.steps if paths is None else int(np.isfinite(paths[:, :, 1:, 0]).sum())
+        return RHPResult(self.action[roots], self.value[roots], self.returns[roots], self.first_actions[roots], steps, paths)
+
 
 def _finish(returns: np.ndarray, first: np.ndarray, steps: int, paths: np.ndarray) -> RHPResult:
     best = returns.argmax(axis=1)
@@ -232,7 +239,8 @@ def rhp_batched(
     stepper: NetworkStepper | None = None,
 ) -> RHPResult:
     """All roots x m roll-outs in lock-step. ``hidden``: the LSTM state before the current
-    observation, each (1, layers, H). ``noise``: (R, m, h, 4) standard normal draws.
+    observation, each (1, layers, H), or (R, layers, H) with one per root (roots of several
+    worlds planned together). ``noise``: (R, m, h, 4) standard normal draws.
     ``min_scale`` > 0 floors the policy's standard deviations in the roll-outs (beyond the paper).
     ``pool``: take the roll-out worlds from this :class:`~occrl.planners.WorldPool` (kept worlds
     reused, the same results) instead of building them. ``stepper``: the network calls (default
@@ -258,6 +266,8 @@ def rhp_batched(
     worlds = pool.take(rollout_states) if pool is not None else [make_world(state) for state in rollout_states]
     n = len(worlds)
     # the m roll-outs of a root start from the same state: render and encode it once per root
+    if hidden[0].shape[0] not in (1, R):
+        raise ValueError(f"hidden must hold one LSTM state or one per root ({R}), got {hidden[0].shape[0]}")
     h0 = hidden[0].expand(R, *hidden[0].shape[1:]).contiguous()
     c0 = hidden[1].expand(R, *hidden[1].shape[1:]).contiguous()
     out, h, c = stepper.step(render_pixels(worlds[::m]), h0, c0)

@@ -169,7 +169,7 @@ def label_with_planner(data: TensorDictBase, net, seed: int = 0, m: int = 4, h: 
     """
     from occrl.planners import HybridPlanner
 
-    planner = HybridPlanner(net, m=m, h=h, seed=seed, inference=inference)
+    planner = HybridPlanner(net, m=m, h=h, seed=seed, inference=inference, batch_worlds=True)
     flat = data.reshape(-1)
     labels = planner(flat.select(*planner.in_keys).copy()).get("action")
     data.set("expert_action", labels.reshape(*data.shape, -1))

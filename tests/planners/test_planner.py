@@ -162,3 +162,30 @@ def test_rollout_min_scale_floors_the_rollouts_spread_in_both_implementations(ne
         HybridPlanner(net, rollout_min_scale=float("nan"))
     with pytest.raises(ValueError, match="rollout_min_scale must be in"):
         HybridPlanner(net, rollout_min_scale=-0.1)
+
+
+def test_planning_several_worlds_together_decides_as_one_world_at_a_time():
+    """batch_worlds / decide_many (a batch of worlds: one RHP over all their roots) draws each world's noise as
+    deciding them one by one does, and chooses the same actions up to the larger batches' float
+    rounding; each world's result and step count is its own."""
+    from torchrl.envs.utils import step_mdp
+
+    from occrl.pretrained import load_pretrained
+
+    net = load_pretrained("occnet")
+    env = make_env(batch_size=4, stage=2, seed=11, heatmap_target=False).append_transform(net.make_primer())
+    td = env.reset()
+    together, alone = HybridPlanner(net, seed=5, batch_worlds=True), HybridPlanner(net, seed=5)
+    for _ in range(3):
+        a = together(td.clone())["action"]
+        b = torch.stack([alone(td[i : i + 1].clone())["action"][0] for i in range(4)])
+        torch.testing.assert_close(a, b, atol=1e-5, rtol=0)
+        for x, y in zip(together.decisions[-4:], alone.decisions[-4:]):
+            assert len(x.roots) == len(y.roots) and x.chosen_root == y.chosen_root and x.result.steps == y.result.steps
+            np.testing.assert_allclose(x.result.returns, y.result.returns, atol=1e-3)
+        td = step_mdp(env.step(td.set("action", a)))
+    assert sum(len(d.roots) for d in together.decisions[-4:]) > 4  # a hidden target: several roots somewhere
+    with pytest.raises(ValueError, match="one LSTM state or one per root"):
+        rhp_batched(
+            net, [together.decisions[-1].roots[0].state] * 2, (torch.zeros(3, 1, 128), torch.zeros(3, 1, 128)), torch.randn(2, 1, 1, 4)
+        )
