@@ -134,7 +134,7 @@ def run_train(args: argparse.Namespace) -> int:
     except KeyboardInterrupt as stop:
         print(_train_summary(args), file=sys.stderr)
         print(
-            f"stopped ({stop or 'interrupted'}); checkpoint saved at iteration {trainer.iteration}: run the same command again to resume",
+            f"stopped ({stop or 'interrupted'}); checkpoint of iteration {trainer.saved_iteration} on disk: run the same command again to resume",
             file=sys.stderr,
         )
         return 130

@@ -166,6 +166,7 @@ class Trainer:
         self.loss, self.optimizer, self.dagger = self.learner.loss, self.learner.optimizer, self.learner.dagger
         self.curriculum = Curriculum(config.start_stage, config.promote_threshold, config.promote_window)
         self.iteration = 0
+        self.saved_iteration: int | None = None  # the iteration of the checkpoint on disk (None: none yet)
         self.frames = 0
         self.train_seconds = 0.0
         # the hybrid-acting teacher plans on the live network; planners are reseeded every iteration
@@ -188,6 +189,7 @@ class Trainer:
             if st["seed"] != self.seed:
                 raise ValueError(f"{ckpt} was written with seed {st['seed']}, not {self.seed}")
             self.iteration, self.frames, self.train_seconds = st["iteration"], st["frames"], st["train_seconds"]
+            self.saved_iteration = self.iteration
             self.curriculum.load_state_dict(st["curriculum"])
             if self.iteration < config.imitation_iters and config.imitation_updates > 0:
                 dagger_file = self.run_dir / (st.get("dagger_data") or DAGGER_DATA)  # checkpoints before 0.2: one fixed name
@@ -348,6 +350,10 @@ class Trainer:
 
             bar = tqdm(total=None if target == math.inf else target, initial=self.iteration, unit="it", desc="training")
         summary: dict = {}
+        # whether the state is that of a finished iteration; from the update to the metrics row
+        # (promotion check included) it is not, and an interruption there (SIGTERM, Ctrl-C, an
+        # error) keeps the last checkpoint rather than write a half-done iteration
+        consistent = True
         try:
             while self.iteration < target and (max_seconds is None or time.time() - start_wall < max_seconds):
                 t0 = time.time()
@@ -363,6 +369,7 @@ class Trainer:
                     pass  # labelled while collecting (OnlineTeacherPolicy), in every phase
                 elif phase == "imitation":
                     label_with_expert(data, self.expert)
+                consistent, unfinished = False, self.iteration + 1
                 batch = self.learner.on_device(data)  # the collected batch (CPU) where the learner is
                 compute_advantages(self.net, batch, c.gamma, c.gae_lambda)
                 losses = self.learner.update(batch, phase)
@@ -405,6 +412,7 @@ class Trainer:
                     summary["hybrid_success_rate"] = hybrid_rate
                 summary.update(self.collection.per_stage_success(data, episode_stats))
                 self._log(summary)
+                consistent = True
                 if promoted:
                     logger.info("promoted to stage %d at iteration %d", self.curriculum.stage, self.iteration)
                 if bar is not None:
@@ -416,7 +424,14 @@ class Trainer:
         finally:
             if bar is not None:
                 bar.close()
-            self.save()
+            if consistent:
+                self.save()
+            else:
+                logger.warning(
+                    "stopped inside iteration %d's update or promotion check: kept the checkpoint of iteration %s",
+                    unfinished,
+                    self.saved_iteration,
+                )
         return summary
 
     def _truncate_metrics(self) -> None:
@@ -456,6 +471,7 @@ class Trainer:
         save_checkpoint(
             self.run_dir / CHECKPOINT, self.net, self.optimizer, self.config.to_dict(), {**self.state(), "dagger_data": dagger_name}
         )
+        self.saved_iteration = self.iteration
         for old in self.run_dir.glob("dagger_buffer*.pt"):
             if old.name != dagger_name:
                 old.unlink()  # not named by the checkpoint any more (or the warm start is over)

@@ -36,6 +36,58 @@ def test_resume_is_exact(tmp_path, imitation):
         assert all(torch.equal(w[k], a[k]) for k in a)
 
 
+@pytest.mark.parametrize("where", ["promotion check", "update"])
+def test_a_stop_inside_an_iteration_keeps_the_last_checkpoint_and_resumes_exactly(tmp_path, where):
+    """SIGTERM / Ctrl-C (KeyboardInterrupt) during the update or the promotion check: the
+    half-done iteration is not checkpointed (it would skip the check or resume from half-updated
+    weights); the run resumes from the checkpoint before it and ends as a run never stopped."""
+    cfg = get_train_config("tiny", promotion="hybrid", promotion_eval_every=2, promote_threshold=0.5)
+    rates = iter([0.4, 0.6])  # the check at iteration 4 promotes
+
+    def check(net, stage, tasks, noise):
+        return next(rates)
+
+    straight = Trainer(cfg, tmp_path / "a", seed=2, progress=False, tensorboard=False, promotion_check=check)
+    straight.train(iterations=5)
+    straight.close()
+
+    rates = iter([0.4, 0.6])
+    run = tmp_path / "b"
+    tr = Trainer(cfg, run, seed=2, progress=False, tensorboard=False, promotion_check=check, checkpoint_every_s=1e-9)
+    if where == "promotion check":
+
+        def stopped(net, stage, tasks, noise):  # the check of iteration 4 is interrupted
+            if tr.iteration == 4:
+                raise KeyboardInterrupt("SIGTERM")
+            return check(net, stage, tasks, noise)
+
+        tr.promotion_check = stopped
+    else:
+        update = tr.learner.update
+
+        def stopped(batch, phase):  # iteration 4's update is interrupted after its first step
+            if tr.iteration == 3:
+                update(batch, phase)
+                raise KeyboardInterrupt("SIGTERM")
+            return update(batch, phase)
+
+        tr.learner.update = stopped
+    with pytest.raises(KeyboardInterrupt):
+        tr.train(iterations=5)
+    tr.close()
+    assert tr.saved_iteration == 3 and torch.load(run / "checkpoint.pt", weights_only=True)["state"]["iteration"] == 3
+    rates = iter([0.6])  # the check of iteration 4 runs again
+    resumed = Trainer(cfg, run, seed=2, progress=False, tensorboard=False, promotion_check=check)
+    assert resumed.iteration == 3
+    resumed.train(iterations=5)
+    resumed.close()
+    a, b = _weights(straight.net), _weights(resumed.net)
+    assert all(torch.equal(a[k], b[k]) for k in a)
+    rows = [json.loads(line) for line in (run / "metrics.jsonl").read_text().splitlines()]
+    assert [r["iteration"] for r in rows] == [1, 2, 3, 4, 5] and [r["stage"] for r in rows] == [1, 1, 1, 2, 2]
+    assert [r.get("hybrid_success_rate") for r in rows] == [None, 0.4, None, 0.6, None]
+
+
 def test_run_folder_has_logs_curves_and_small_files(tmp_path):
     tr = Trainer(get_train_config("tiny"), tmp_path, seed=0, progress=False, tensorboard=True)
     tr.train(iterations=2)

@@ -1,0 +1,109 @@
+"""Where does the hybrid planner lose stage-2 tasks: in the search, or in the retrieval?
+
+    python scripts/handover.py --stage 2 --tasks 200 [--weights W.pt] [--to scripted|hierarchical] [--out F.json]
+
+The hybrid 4x4 planner acts from the start of each held-out task (the README's task seeds); from
+the first step at which perception reports the target, a retriever acts instead until the
+episode ends: the privileged scripted retriever (``--to scripted``: it knows where the target is,
+so it measures how often the retrieval from the planner's hand-over states can be done at all by
+a direct reach, grasp and pull) or the hierarchical planner (``--to hierarchical``: observations
+only, its OMPL reach / rearrange / extract, fed every observation of the episode). The planner
+keeps deciding underneath so that its LSTM state follows the real history (its actions are
+discarded after the hand-over). Prints success of the combination against the hybrid planner's
+own on the same tasks (from ``--baseline F.json`` of `occrl eval`, if given), and how many tasks
+were handed over at all. A diagnosis for issue 16 (docs/decisions.md); analysis only: the
+retriever reads what its kind reads (the scripted one privileged state).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import numpy as np
+import torch
+from tensordict import TensorDictBase
+from tensordict.nn import TensorDictModuleBase
+
+from occrl.eval.methods import make_method
+from occrl.envs.episodes import run_episodes, task_scenes
+from occrl.eval.runner import EVAL_SEED_BASE, summarize
+from occrl.planners import recreate
+
+
+class Handover(TensorDictModuleBase):
+    """The searcher acts until the target is first detected in a world's episode, the retriever after."""
+
+    def __init__(self, searcher, retriever) -> None:
+        super().__init__()
+        self.searcher, self.retriever = searcher, retriever
+        self.in_keys = list(dict.fromkeys([*searcher.in_keys, *retriever.in_keys]))
+        self.out_keys = list(searcher.out_keys)
+        self.handed: np.ndarray | None = None  # per world: the retriever acts
+        self.handovers = 0
+
+    def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+        flat = tensordict.reshape(-1)
+        if self.handed is None or len(self.handed) != flat.shape[0]:
+            self.handed = np.zeros(flat.shape[0], dtype=bool)
+        self.handed[flat.get("is_init").reshape(-1).numpy()] = False
+        for b in range(flat.shape[0]):
+            if not self.handed[b] and recreate(flat[b]).target_detected:
+                self.handed[b] = True
+                self.handovers += 1
+        # the retriever sees every observation (episode memory); the searcher keeps its LSTM going
+        retrieved = self.retriever(tensordict.select(*self.retriever.in_keys).copy()).get("action").reshape(-1, 4)
+        out = self.searcher(tensordict)
+        action = out.get("action").reshape(-1, 4).clone()
+        action[torch.from_numpy(self.handed)] = retrieved[torch.from_numpy(self.handed)]
+        out.set("action", action.reshape(out.get("action").shape))
+        return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--stage", type=int, default=2)
+    parser.add_argument("--tasks", type=int, default=200)
+    parser.add_argument("--weights", default=None, help="the planner's network (default: the shipped occnet)")
+    parser.add_argument("--to", default="scripted", choices=("scripted", "hierarchical"))
+    parser.add_argument("--baseline", default=None, help="an `occrl eval --out` file of hybrid 4x4 on the same tasks")
+    parser.add_argument("--out", default=None)
+    args = parser.parse_args()
+    torch.set_num_threads(1)
+    planner = make_method("hybrid-4x4", args.weights)
+    retriever = make_method(args.to)
+    policy = Handover(planner.policy, retriever.policy)
+    seeds = list(range(EVAL_SEED_BASE, EVAL_SEED_BASE + args.tasks))
+    t0 = time.time()
+    results = []
+    for seed in seeds:  # one world per task, as `occrl eval` runs the planners
+        if hasattr(retriever.policy, "reset"):
+            retriever.policy.reset()
+        results += run_episodes(policy, task_scenes(args.stage, [seed]), [seed], 0.0, 1, planner.primers)
+    summary = summarize(results)
+    lo, hi = summary["success_ci95"]
+    print(
+        f"hybrid 4x4 -> {args.to} at the first detection, stage {args.stage}: {100 * summary['success_rate']:.1f} % "
+        f"({100 * lo:.1f}-{100 * hi:.1f}) of {len(results)} tasks; handed over in {policy.handovers}; {time.time() - t0:.0f} s"
+    )
+    report = {"stage": args.stage, "to": args.to, "weights": args.weights or "occnet", "handovers": policy.handovers, **summary}
+    report["episodes"] = [{"seed": r.seed, "success": bool(r.success), "actions": int(r.actions)} for r in results]
+    if args.baseline:
+        base = {e["seed"]: e["success"] for e in json.loads(open(args.baseline).read())["episodes"]}
+        both = [(base[r.seed], bool(r.success)) for r in results if r.seed in base]
+        own = np.mean([b for b, _ in both])
+        gained = sum(1 for b, h in both if h and not b)
+        lost = sum(1 for b, h in both if b and not h)
+        print(f"the planner alone on the same {len(both)} tasks: {100 * own:.1f} %; the hand-over wins {gained}, loses {lost}")
+        report["baseline"] = {"file": args.baseline, "success_rate": float(own), "gained": gained, "lost": lost}
+    if args.out:
+        with open(args.out, "w") as f:
+            json.dump(report, f, indent=1)
+
+
+if __name__ == "__main__":
+    main()
