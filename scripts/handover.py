@@ -7,7 +7,8 @@ the first step at which perception reports the target, a retriever acts instead 
 episode ends: the privileged scripted retriever (``--to scripted``: it knows where the target is,
 so it measures how often the retrieval from the planner's hand-over states can be done at all by
 a direct reach, grasp and pull) or the hierarchical planner (``--to hierarchical``: observations
-only, its OMPL reach / rearrange / extract, fed every observation of the episode). The planner
+only, its OMPL reach / rearrange / extract, as `occrl eval` runs it). The retriever's episode
+starts at the hand-over (its first observation is flagged ``is_init``). The planner
 keeps deciding underneath so that its LSTM state follows the real history (its actions are
 discarded after the hand-over). Prints success of the combination against the hybrid planner's
 own on the same tasks (from ``--baseline F.json`` of `occrl eval`, if given), and how many tasks
@@ -28,6 +29,7 @@ import numpy as np
 import torch
 from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
+from tqdm import tqdm
 
 from occrl.eval.methods import make_method
 from occrl.envs.episodes import run_episodes, task_scenes
@@ -44,23 +46,34 @@ class Handover(TensorDictModuleBase):
         self.in_keys = list(dict.fromkeys([*searcher.in_keys, *retriever.in_keys]))
         self.out_keys = list(searcher.out_keys)
         self.handed: np.ndarray | None = None  # per world: the retriever acts
-        self.handovers = 0
+        self.first_episode: np.ndarray | None = None  # per world: still in the task's first episode
+        self.handovers = 0  # hand-overs in the first episodes (the ones that count)
 
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
         flat = tensordict.reshape(-1)
-        if self.handed is None or len(self.handed) != flat.shape[0]:
+        is_init = flat.get("is_init").reshape(-1).numpy()
+        if self.handed is None or len(self.handed) != flat.shape[0]:  # a new task
             self.handed = np.zeros(flat.shape[0], dtype=bool)
-        self.handed[flat.get("is_init").reshape(-1).numpy()] = False
+            self.first_episode = np.ones(flat.shape[0], dtype=bool)
+            self.started = np.zeros(flat.shape[0], dtype=bool)
+            self.retrieving = np.zeros(flat.shape[0], dtype=bool)
+        self.first_episode[is_init & self.started] = False  # a later episode of a finished world
+        self.started[:] = True
+        self.handed[is_init] = False
         for b in range(flat.shape[0]):
             if not self.handed[b] and recreate(flat[b]).target_detected:
                 self.handed[b] = True
-                self.handovers += 1
-        # the retriever sees every observation (episode memory); the searcher keeps its LSTM going
-        retrieved = self.retriever(tensordict.select(*self.retriever.in_keys).copy()).get("action").reshape(-1, 4)
-        out = self.searcher(tensordict)
-        action = out.get("action").reshape(-1, 4).clone()
-        action[torch.from_numpy(self.handed)] = retrieved[torch.from_numpy(self.handed)]
-        out.set("action", action.reshape(out.get("action").shape))
+                self.handovers += int(self.first_episode[b])
+        out = self.searcher(tensordict)  # it keeps deciding, so that its LSTM follows the history
+        if self.handed.any():
+            # the retriever starts its episode at the hand-over (the first observation it sees)
+            obs = tensordict.select(*self.retriever.in_keys).copy()
+            obs.set("is_init", torch.from_numpy(self.handed & ~self.retrieving).reshape(tensordict.get("is_init").shape))
+            retrieved = self.retriever(obs).get("action").reshape(-1, 4)
+            action = out.get("action").reshape(-1, 4).clone()
+            action[torch.from_numpy(self.handed)] = retrieved[torch.from_numpy(self.handed)]
+            out.set("action", action.reshape(out.get("action").shape))
+        self.retrieving = self.handed.copy()
         return out
 
 
@@ -80,9 +93,10 @@ def main() -> None:
     seeds = list(range(EVAL_SEED_BASE, EVAL_SEED_BASE + args.tasks))
     t0 = time.time()
     results = []
-    for seed in seeds:  # one world per task, as `occrl eval` runs the planners
+    for seed in tqdm(seeds, desc=f"hybrid 4x4 -> {args.to}", unit="task"):  # one world per task, as `occrl eval` runs the planners
         if hasattr(retriever.policy, "reset"):
             retriever.policy.reset()
+        policy.handed = None  # a new task
         results += run_episodes(policy, task_scenes(args.stage, [seed]), [seed], 0.0, 1, planner.primers)
     summary = summarize(results)
     lo, hi = summary["success_ci95"]
