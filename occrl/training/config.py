@@ -99,7 +99,7 @@ class TrainConfig:
     a share beta of the episodes and labels every step of the others; collector "single")."""
     teacher_inference: str = "torch"
     """Network inference of the hybrid-planner teachers ("hybrid", "hybrid-acting"): "torch" or
-    "onnxruntime" (pip install onnx onnxruntime; ~1.5x the labels per second, the same network to
+    "onnxruntime" (pip install onnx onnxruntime; ~1.2x the labels per second, the same network to
     float rounding, re-exported after every update). Like the device, it changes rounding only: a
     run may resume under the other. Promotion checks always plan with torch, as evaluations do."""
     teacher_label_kinds: str = "all"
