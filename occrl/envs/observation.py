@@ -31,7 +31,7 @@ import torch
 
 from occrl.envs import world_constants as C
 from occrl.envs.geometry import transform_polygons
-from occrl.envs.render import DEFAULT_CANVAS, Canvas, labels_to_pixels, render_labels
+from occrl.envs.render import DEFAULT_CANVAS, Canvas, labels_to_pixels, render_labels_batch
 from occrl.envs.robot_frame import DEFAULT_FORWARD_OFFSET, DEFAULT_SIZE, DEFAULT_WINDOW, robot_centric_points
 from occrl.envs.shelf_geometry import SHELF_WALLS
 from occrl.envs.visibility import detect, visible_fractions_batch
@@ -219,11 +219,7 @@ def render_shelf_labels(
         (1, 244, 250)
     """
     poses = np.asarray(gripper_poses).astype(np.float64)
-    openings = np.asarray(openings).reshape(-1)
-    labels = np.empty((len(poses), *canvas.shape), dtype=np.uint8)
-    for b, (polys, is_target) in enumerate(detections):
-        labels[b] = render_labels(poses[b], float(openings[b]), polys, is_target, canvas, fov)
-    return labels
+    return render_labels_batch(poses, np.asarray(openings).reshape(-1).astype(np.float64), detections, canvas, fov)
 
 
 def crop_to_pixels(

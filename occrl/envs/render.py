@@ -29,6 +29,7 @@ __all__ = [
     "LABELS",
     "PALETTE",
     "render_labels",
+    "render_labels_batch",
     "render_true_scene",
     "labels_to_rgb",
     "labels_to_pixels",
@@ -131,33 +132,65 @@ def render_labels(
         >>> labels_to_rgb(labels).shape[-1]
         3
     """
-    cx, cy, th = (float(v) for v in gripper_pose)
-    cam = np.array([cx, cy])
-    img = Image.new("L", (canvas.shape[1], canvas.shape[0]), LABELS["observable"])
-    draw = ImageDraw.Draw(img)
+    pose = np.asarray(gripper_pose, dtype=float).reshape(1, 3)
+    return render_labels_batch(pose, np.array([float(opening)]), [(list(object_polygons), list(is_target))], canvas, fov)[0]
+
+
+def render_labels_batch(
+    gripper_poses: np.ndarray,
+    openings: np.ndarray,
+    detections: Sequence[tuple[Sequence[np.ndarray], Sequence[bool]]],
+    canvas: Canvas = DEFAULT_CANVAS,
+    fov: float = C.CAMERA_FOV,
+) -> np.ndarray:
+    """:func:`render_labels` of several worlds, (B, H, W) uint8: gripper poses (B, 3), openings
+    (B,) and per world its detected polygons and target flags. The shadows of every world are
+    computed in one vectorised call (each world's bit for bit its own); only the raster is per world.
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.render import render_labels, render_labels_batch
+        >>> box = np.array([[-0.02, 0.18], [0.02, 0.18], [0.02, 0.22], [-0.02, 0.22]])
+        >>> poses = np.array([[0.0, -0.1, 0.0], [0.05, -0.1, 0.3]])
+        >>> both = render_labels_batch(poses, np.array([0.085, 0.085]), [([box], [True]), ([], [])])
+        >>> bool((both[0] == render_labels(poses[0], 0.085, [box], [True])).all()), both.shape
+        (True, (2, 244, 250))
+    """
+    poses = np.asarray(gripper_poses, dtype=float).reshape(-1, 3)
     _, _, walls_padded = _static_pixels(canvas)
-
-    # outside the field of view: the camera, then an arc around the back
-    axis = th + math.pi / 2
-    arc = _FOV_ARC[fov] if fov in _FOV_ARC else _fov_arc(fov)
-    c, s = math.cos(axis), math.sin(axis)
-    fov_out = np.concatenate([cam[None], cam + _FAR * (arc @ np.array([[c, s], [-s, c]]))])
-    draw.polygon(canvas.to_pixels(fov_out).ravel().tolist(), fill=LABELS["occluded"])
-
+    counts = [len(polys) for polys, _ in detections]
+    most = max(counts, default=0)
+    # every world's objects padded to the same count (spare slots: a wall, cast and never drawn), then the walls
+    padded = np.broadcast_to(walls_padded[:1], (len(poses), most + len(walls_padded), *walls_padded.shape[1:])).copy()
+    padded[:, most:] = walls_padded
+    for b, (polys, _) in enumerate(detections):
+        if counts[b]:
+            padded[b, : counts[b]] = pad_polygons(polys, C.MAX_VERTICES)
     # shadows of detected objects and walls: from the two silhouette vertices away from the camera
-    n = len(object_polygons)
-    padded = np.concatenate([pad_polygons(object_polygons, C.MAX_VERTICES), walls_padded]) if n else walls_padded
-    _, _, inside, i_lo, i_hi = angular_extents(padded, np.array([cx, cy, th]), with_tangents=True)
-    ar = np.arange(len(padded))
-    v_lo, v_hi = padded[ar, i_lo], padded[ar, i_hi]
-    d_lo, d_hi = v_lo - cam, v_hi - cam
-    f_lo = v_lo + _FAR * d_lo / np.maximum(np.linalg.norm(d_lo, axis=1, keepdims=True), 1e-9)
-    f_hi = v_hi + _FAR * d_hi / np.maximum(np.linalg.norm(d_hi, axis=1, keepdims=True), 1e-9)
-    shadows = np.stack([v_lo, v_hi, f_hi, f_lo], 1)[~inside]
-    _draw_pixel_polys(draw, canvas.to_pixels(shadows), LABELS["occluded"])
-
-    _draw_shelf_and_bodies(draw, canvas, (cx, cy, th), opening, padded[:n], [len(p) for p in object_polygons], is_target)
-    return np.asarray(img, dtype=np.uint8)
+    _, _, inside, i_lo, i_hi = angular_extents(padded, poses, with_tangents=True)
+    v_lo = np.take_along_axis(padded, i_lo[..., None, None], axis=2)[:, :, 0]
+    v_hi = np.take_along_axis(padded, i_hi[..., None, None], axis=2)[:, :, 0]
+    cams = poses[:, None, :2]
+    d_lo, d_hi = v_lo - cams, v_hi - cams
+    f_lo = v_lo + _FAR * d_lo / np.maximum(np.linalg.norm(d_lo, axis=-1, keepdims=True), 1e-9)
+    f_hi = v_hi + _FAR * d_hi / np.maximum(np.linalg.norm(d_hi, axis=-1, keepdims=True), 1e-9)
+    shadow_pixels = canvas.to_pixels(np.stack([v_lo, v_hi, f_hi, f_lo], 2))
+    arc = _FOV_ARC[fov] if fov in _FOV_ARC else _fov_arc(fov)
+    labels = np.empty((len(poses), *canvas.shape), dtype=np.uint8)
+    for b, (polys, is_target) in enumerate(detections):
+        cx, cy, th = (float(v) for v in poses[b])
+        img = Image.new("L", (canvas.shape[1], canvas.shape[0]), LABELS["observable"])
+        draw = ImageDraw.Draw(img)
+        # outside the field of view: the camera, then an arc around the back
+        axis = th + math.pi / 2
+        c, s = math.cos(axis), math.sin(axis)
+        fov_out = np.concatenate([np.array([[cx, cy]]), np.array([cx, cy]) + _FAR * (arc @ np.array([[c, s], [-s, c]]))])
+        draw.polygon(canvas.to_pixels(fov_out).ravel().tolist(), fill=LABELS["occluded"])
+        cast = np.r_[0 : counts[b], most : padded.shape[1]]  # this world's objects, then the walls
+        _draw_pixel_polys(draw, shadow_pixels[b, cast][~inside[b, cast]], LABELS["occluded"])
+        _draw_shelf_and_bodies(draw, canvas, (cx, cy, th), float(openings[b]), padded[b, : counts[b]], [len(p) for p in polys], is_target)
+        labels[b] = np.asarray(img, dtype=np.uint8)
+    return labels
 
 
 def _draw_shelf_and_bodies(draw, canvas: Canvas, gripper_pose, opening: float, padded: np.ndarray, counts, is_target) -> None:
