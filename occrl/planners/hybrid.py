@@ -152,17 +152,27 @@ class HybridPlanner(TensorDictModuleBase):
         self.max_roots = 1 if limited else int(max_roots)
         self.gamma = gamma
         self.batched = batched
-        self.rollout_min_scale = float(rollout_min_scale)
         self.generator = torch.Generator().manual_seed(int(seed))
         self.pool = WorldPool()  # roll-out worlds kept between decisions (batched RHP)
         if inference not in INFERENCE_BACKENDS:
             raise ValueError(f"inference must be one of {INFERENCE_BACKENDS}, got {inference!r}")
         self.inference = inference
         self.batch_worlds = bool(batch_worlds)
-        self.stepper = NetworkStepper(self.net, self.rollout_min_scale, backend=inference)
+        self.stepper = NetworkStepper(self.net, float(rollout_min_scale), backend=inference)
         self.decisions: list[Decision] = []
         self.in_keys = ["pixels", "is_init", "recurrent_state_h", "recurrent_state_c", *OBSERVATION_KEYS]
         self.out_keys = ["action", ("next", "recurrent_state_h"), ("next", "recurrent_state_c"), "heatmap"]
+
+    @property
+    def rollout_min_scale(self) -> float:
+        """The floor on the roll-outs' policy spread; its stepper applies it (one value, kept there)."""
+        return self.stepper.min_scale
+
+    @rollout_min_scale.setter
+    def rollout_min_scale(self, value: float) -> None:
+        if not 0.0 <= value <= 1.0:
+            raise ValueError(f"rollout_min_scale must be in [0, 1] (a standard deviation in action units), got {value}")
+        self.stepper.min_scale = float(value)
 
     def reseed(self, seed: int) -> None:
         self.generator.manual_seed(int(seed))
@@ -208,7 +218,6 @@ class HybridPlanner(TensorDictModuleBase):
         noise = torch.randn(len(roots), self.m, self.h, C.ACTION_DIM, generator=self.generator)
         states = [r.state for r in roots]
         if self.batched:
-            self.stepper.min_scale = self.rollout_min_scale
             result = rhp_batched(self.net, states, hidden, noise, self.gamma, self.rollout_min_scale, pool=self.pool, stepper=self.stepper)
         else:
             result = rhp_sequential(self.net, states, hidden, noise, self.gamma, self.rollout_min_scale)
@@ -228,7 +237,6 @@ class HybridPlanner(TensorDictModuleBase):
             noise.append(torch.randn(len(roots), self.m, self.h, C.ACTION_DIM, generator=self.generator))
         counts = [len(roots) for roots in roots_per_world]
         owner = torch.from_numpy(np.repeat(np.arange(len(counts)), counts))
-        self.stepper.min_scale = self.rollout_min_scale
         states = [r.state for roots in roots_per_world for r in roots]
         result = rhp_batched(
             self.net,
