@@ -2,9 +2,10 @@
 
     python scripts/handover.py --stage 2 --tasks 200 [--weights W.pt] [--to scripted|hierarchical] [--out F.json]
 
-The hybrid 4x4 planner acts from the start of each held-out task (the README's task seeds); from
-the first step at which perception reports the target, a retriever acts instead until the
-episode ends: the privileged scripted retriever (``--to scripted``: it knows where the target is,
+The hybrid 4x4 planner acts from the start of each held-out task (the README's task seeds; the
+planner reseeded per task as `occrl eval` does, so up to the hand-over the episodes are those of
+the evaluation); from the first step at which perception reports the target, a retriever acts
+instead until the episode ends (``occrl.baselines.handover.SearchThenRetrieve``): the privileged scripted retriever (``--to scripted``: it knows where the target is,
 so it measures how often the retrieval from the planner's hand-over states can be done at all by
 a direct reach, grasp and pull) or the hierarchical planner (``--to hierarchical``: observations
 only, its OMPL reach / rearrange / extract, as `occrl eval` runs it). The retriever's episode
@@ -27,54 +28,12 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np
 import torch
-from tensordict import TensorDictBase
-from tensordict.nn import TensorDictModuleBase
 from tqdm import tqdm
 
 from occrl.eval.methods import make_method
+from occrl.baselines.handover import SearchThenRetrieve
 from occrl.envs.episodes import run_episodes, task_scenes
 from occrl.eval.runner import EVAL_SEED_BASE, summarize
-from occrl.planners import recreate
-
-
-class Handover(TensorDictModuleBase):
-    """The searcher acts until the target is first detected in a world's episode, the retriever after."""
-
-    def __init__(self, searcher, retriever) -> None:
-        super().__init__()
-        self.searcher, self.retriever = searcher, retriever
-        self.in_keys = list(dict.fromkeys([*searcher.in_keys, *retriever.in_keys]))
-        self.out_keys = list(searcher.out_keys)
-        self.handed: np.ndarray | None = None  # per world: the retriever acts
-        self.first_episode: np.ndarray | None = None  # per world: still in the task's first episode
-        self.handovers = 0  # hand-overs in the first episodes (the ones that count)
-
-    def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
-        flat = tensordict.reshape(-1)
-        is_init = flat.get("is_init").reshape(-1).numpy()
-        if self.handed is None or len(self.handed) != flat.shape[0]:  # a new task
-            self.handed = np.zeros(flat.shape[0], dtype=bool)
-            self.first_episode = np.ones(flat.shape[0], dtype=bool)
-            self.started = np.zeros(flat.shape[0], dtype=bool)
-            self.retrieving = np.zeros(flat.shape[0], dtype=bool)
-        self.first_episode[is_init & self.started] = False  # a later episode of a finished world
-        self.started[:] = True
-        self.handed[is_init] = False
-        for b in range(flat.shape[0]):
-            if not self.handed[b] and recreate(flat[b]).target_detected:
-                self.handed[b] = True
-                self.handovers += int(self.first_episode[b])
-        out = self.searcher(tensordict)  # it keeps deciding, so that its LSTM follows the history
-        if self.handed.any():
-            # the retriever starts its episode at the hand-over (the first observation it sees)
-            obs = tensordict.select(*self.retriever.in_keys).copy()
-            obs.set("is_init", torch.from_numpy(self.handed & ~self.retrieving).reshape(tensordict.get("is_init").shape))
-            retrieved = self.retriever(obs).get("action").reshape(-1, 4)
-            action = out.get("action").reshape(-1, 4).clone()
-            action[torch.from_numpy(self.handed)] = retrieved[torch.from_numpy(self.handed)]
-            out.set("action", action.reshape(out.get("action").shape))
-        self.retrieving = self.handed.copy()
-        return out
 
 
 def main() -> None:
@@ -89,15 +48,17 @@ def main() -> None:
     torch.set_num_threads(1)
     planner = make_method("hybrid-4x4", args.weights)
     retriever = make_method(args.to)
-    policy = Handover(planner.policy, retriever.policy)
+    policy = SearchThenRetrieve(planner.policy, retriever.policy)
     seeds = list(range(EVAL_SEED_BASE, EVAL_SEED_BASE + args.tasks))
     t0 = time.time()
-    results = []
+    results, handed = [], []
     for seed in tqdm(seeds, desc=f"hybrid 4x4 -> {args.to}", unit="task"):  # one world per task, as `occrl eval` runs the planners
-        if hasattr(retriever.policy, "reset"):
-            retriever.policy.reset()
-        policy.handed = None  # a new task
+        before = policy.handovers
+        policy.reset()  # a new task (run_episodes reseeds both parts with the task seed)
+        policy.handovers = before
+        handed.append(None)
         results += run_episodes(policy, task_scenes(args.stage, [seed]), [seed], 0.0, 1, planner.primers)
+        handed[-1] = policy.handovers > before
     summary = summarize(results)
     lo, hi = summary["success_ci95"]
     print(
@@ -105,9 +66,16 @@ def main() -> None:
         f"({100 * lo:.1f}-{100 * hi:.1f}) of {len(results)} tasks; handed over in {policy.handovers}; {time.time() - t0:.0f} s"
     )
     report = {"stage": args.stage, "to": args.to, "weights": args.weights or "occnet", "handovers": policy.handovers, **summary}
-    report["episodes"] = [{"seed": r.seed, "success": bool(r.success), "actions": int(r.actions)} for r in results]
+    report["episodes"] = [
+        {"seed": r.seed, "success": bool(r.success), "actions": int(r.actions), "handed_over": h} for r, h in zip(results, handed)
+    ]
     if args.baseline:
-        base = {e["seed"]: e["success"] for e in json.loads(open(args.baseline).read())["episodes"]}
+        episodes = json.loads(open(args.baseline).read())["episodes"]
+        base = {e["seed"]: e["success"] for e in episodes}
+        # without a hand-over an episode is the planner's own: the same outcome and length
+        length = {e["seed"]: e["actions"] for e in episodes}
+        same = [length[r.seed] == r.actions and base[r.seed] == r.success for r, h in zip(results, handed) if not h and r.seed in base]
+        print(f"tasks never handed over: {len(same)}, of them equal to the planner's own episode: {sum(same)}")
         both = [(base[r.seed], bool(r.success)) for r in results if r.seed in base]
         own = np.mean([b for b, _ in both])
         gained = sum(1 for b, h in both if h and not b)
