@@ -17,6 +17,7 @@ SETTING_CHOICES: dict[str, tuple[str, ...]] = {
     "imitation_teacher": ("scripted", "hybrid", "hybrid-acting", "hierarchical"),
     "promotion": ("learner", "hybrid"),
     "teacher_inference": ("torch", "onnxruntime"),
+    "retrieval_labels": ("planner", "scripted"),
 }
 
 
@@ -102,6 +103,11 @@ class TrainConfig:
     "onnxruntime" (pip install onnx onnxruntime; ~1.2x the labels per second, the same network to
     float rounding, re-exported after every update). Like the device, it changes rounding only: a
     run may resume under the other. Promotion checks always plan with torch, as evaluations do."""
+    retrieval_labels: str = "planner"
+    """"hybrid-acting": who labels the steps at which the learner's observation shows the target:
+    the acting planner ("planner") or the privileged scripted retriever ("scripted": a direct
+    reach, grasp and pull of a target the learner can see; from the planner's hand-over states it
+    retrieves 71 % of the held-out stage-2 tasks against the planner's 58.5 %, docs/decisions.md)."""
     teacher_label_kinds: str = "all"
     """Which of the "hierarchical" teacher's steps are labels: "all", or comma-separated action kinds
     (occrl.baselines.hierarchical.ACTION_KINDS), e.g. "reach,extract": the teacher teaches the

@@ -18,7 +18,7 @@ from tensordict.nn import TensorDictModuleBase
 
 from occrl.baselines.scripted import ScriptedRetriever
 
-__all__ = ["ExpertMixPolicy", "OnlineTeacherPolicy", "label_with_expert", "label_with_planner"]
+__all__ = ["ExpertMixPolicy", "OnlineTeacherPolicy", "label_with_expert", "label_with_planner", "relabel_retrieval", "target_in_view"]
 
 
 class ExpertMixPolicy(TensorDictModuleBase):
@@ -150,6 +150,34 @@ def label_with_expert(data: TensorDictBase, expert: ScriptedRetriever) -> Tensor
     flat = data.reshape(-1)
     labels = expert(flat.select("gripper_pose", "gripper_opening", "gripper_closed", "privileged").copy()).get("action")
     data.set("expert_action", labels.reshape(*data.shape, -1))
+    return data
+
+
+def target_in_view(data: TensorDictBase) -> torch.Tensor:
+    """Per frame: whether the observation's detections include the target (an object of the
+    target's type), as the learner sees it. Shape: the batch's.
+
+    Examples:
+        >>> from occrl.envs import make_env
+        >>> from occrl.training.dagger import target_in_view
+        >>> td = make_env(batch_size=2, stage=2, seed=1, heatmap_target=False).reset()
+        >>> target_in_view(td).tolist()  # hidden in the first world, seen in the second
+        [False, True]
+    """
+    detected = data.get(("objects", "detected"))
+    same_type = data.get(("objects", "type_id")) == data.get("target_type")
+    return (detected & same_type).any(-1)
+
+
+def relabel_retrieval(data: TensorDictBase, expert: ScriptedRetriever) -> TensorDictBase:
+    """Replace ``"expert_action"`` by the privileged scripted retriever's action on the frames
+    whose observation shows the target (:func:`target_in_view`); the other labels stay. The
+    retriever's plan caches are cleared first, so the labels depend on this batch alone."""
+    shown = target_in_view(data)
+    expert.reset()
+    if shown.any():
+        scripted = label_with_expert(data.clone(), expert).get("expert_action")
+        data.set("expert_action", torch.where(shown.unsqueeze(-1), scripted, data.get("expert_action")))
     return data
 
 

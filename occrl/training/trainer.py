@@ -39,7 +39,7 @@ from occrl.training.checkpoint import load_checkpoint, save_checkpoint
 from occrl.training.collection import TrainingCollector
 from occrl.training.config import TrainConfig
 from occrl.training.curriculum import Curriculum
-from occrl.training.dagger import ExpertMixPolicy, OnlineTeacherPolicy, label_with_expert, label_with_planner
+from occrl.training.dagger import ExpertMixPolicy, OnlineTeacherPolicy, label_with_expert, label_with_planner, relabel_retrieval
 from occrl.training.learner import Learner
 from occrl.training.run_folder import (
     CHECKPOINT,
@@ -121,6 +121,10 @@ class Trainer:
             )
         if config.imitation_teacher not in IMITATION_TEACHERS:
             raise ValueError(f"imitation_teacher must be one of {IMITATION_TEACHERS}, got {config.imitation_teacher!r}")
+        if config.retrieval_labels not in ("planner", "scripted"):
+            raise ValueError(f"retrieval_labels must be 'planner' or 'scripted', got {config.retrieval_labels!r}")
+        if config.retrieval_labels != "planner" and config.imitation_teacher != "hybrid-acting":
+            raise ValueError(f"retrieval_labels applies to imitation_teacher 'hybrid-acting', not {config.imitation_teacher!r}")
         if config.teacher_inference not in INFERENCE_BACKENDS:
             raise ValueError(f"teacher_inference must be one of {INFERENCE_BACKENDS}, got {config.teacher_inference!r}")
         if config.imitation_teacher in ("hybrid", "hybrid-acting") and not config.heatmap:
@@ -178,6 +182,7 @@ class Trainer:
             self.expert = HierarchicalPlanner(seed=self.seed, **HIERARCHICAL_TEACHER)
         else:
             self.expert = ScriptedRetriever()
+        self.retriever = ScriptedRetriever()  # labels the target-in-view steps (retrieval_labels="scripted")
         for leftover in self.run_dir.glob("*.tmp"):  # a write a crash interrupted; its target is intact
             leftover.unlink()
         ckpt = self.run_dir / CHECKPOINT
@@ -365,6 +370,8 @@ class Trainer:
                     label_with_planner(data, self.acting_net, seed=self.seed * 1_000_003 + self.iteration, inference=c.teacher_inference)
                 elif phase == "imitation" and c.imitation_teacher == "hybrid-acting":
                     data.set("expert_action", data.get("action").clone())  # the planner acted
+                    if c.retrieval_labels == "scripted":
+                        relabel_retrieval(data, self.retriever)
                 elif c.imitation_teacher == "hierarchical":
                     pass  # labelled while collecting (OnlineTeacherPolicy), in every phase
                 elif phase == "imitation":

@@ -80,3 +80,31 @@ def test_hybrid_acting_teacher_on_onnxruntime_plans_on_the_updated_weights(tmp_p
     tr.close()
     with pytest.raises(ValueError, match="teacher_inference must be one of"):
         Trainer(get_train_config("tiny", teacher_inference="tensorrt"), tmp_path / "b", seed=0, progress=False)
+
+
+def test_scripted_retrieval_labels_replace_the_planners_where_the_target_is_in_view(tmp_path):
+    """retrieval_labels="scripted": on the frames whose observation shows the target the label
+    is the privileged scripted retriever's action, elsewhere the acting planner's."""
+    from occrl.baselines import ScriptedRetriever
+    from occrl.training.dagger import label_with_expert, relabel_retrieval, target_in_view
+
+    cfg = get_train_config("tiny", imitation_iters=5, imitation_teacher="hybrid-acting", collector="single", retrieval_labels="scripted")
+    tr = Trainer(cfg, tmp_path, seed=1, progress=False, tensorboard=False)
+    data = tr._collect()
+    data.set("expert_action", data.get("action").clone())
+    shown = target_in_view(data)
+    assert shown.any() and not shown.all()
+    labels = relabel_retrieval(data.clone(), tr.retriever)["expert_action"]
+    scripted = label_with_expert(data.clone(), ScriptedRetriever())["expert_action"]
+    assert torch.equal(labels[shown], scripted[shown]) and torch.equal(labels[~shown], data["action"][~shown])
+    tr.train(iterations=1)
+    tr.close()
+    with pytest.raises(ValueError, match="retrieval_labels applies to"):
+        Trainer(get_train_config("tiny", retrieval_labels="scripted"), tmp_path / "b", seed=0, progress=False)
+    with pytest.raises(ValueError, match="retrieval_labels must be"):
+        Trainer(
+            get_train_config("tiny", imitation_teacher="hybrid-acting", collector="single", retrieval_labels="oracle"),
+            tmp_path / "c",
+            seed=0,
+            progress=False,
+        )
