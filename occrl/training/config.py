@@ -107,7 +107,8 @@ class TrainConfig:
     """"hybrid-acting": who labels the steps at which the learner's observation shows the target:
     the acting planner ("planner") or the privileged scripted retriever ("scripted": a direct
     reach, grasp and pull of a target the learner can see; from the planner's hand-over states it
-    retrieves 71 % of the held-out stage-2 tasks against the planner's 58.5 %, docs/decisions.md)."""
+    retrieves 72 % of the held-out stage-2 tasks against the planner's 58.5 %; as labels on the
+    planner's states it made the planner worse, docs/decisions.md)."""
     teacher_label_kinds: str = "all"
     """Which of the "hierarchical" teacher's steps are labels: "all", or comma-separated action kinds
     (occrl.baselines.hierarchical.ACTION_KINDS), e.g. "reach,extract": the teacher teaches the
