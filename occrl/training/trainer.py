@@ -37,7 +37,7 @@ from occrl.planners.rhp import INFERENCE_BACKENDS
 from occrl.modules.weights import load_weights, save_weights
 from occrl.training.checkpoint import load_checkpoint, save_checkpoint
 from occrl.training.collection import TrainingCollector
-from occrl.training.config import TrainConfig
+from occrl.training.config import SETTING_CHOICES, TrainConfig, training_device
 from occrl.training.curriculum import Curriculum
 from occrl.training.dagger import ExpertMixPolicy, OnlineTeacherPolicy, label_with_expert, label_with_planner, relabel_retrieval
 from occrl.training.learner import Learner
@@ -51,7 +51,6 @@ from occrl.training.run_folder import (
     same_run_settings,
     truncate_metrics,
 )
-from occrl.training.config import training_device
 from occrl.training.stats import episode_stats
 
 __all__ = ["Trainer", "hybrid_validation_success", "VALIDATION_SEED_BASE"]
@@ -121,8 +120,8 @@ class Trainer:
             )
         if config.imitation_teacher not in IMITATION_TEACHERS:
             raise ValueError(f"imitation_teacher must be one of {IMITATION_TEACHERS}, got {config.imitation_teacher!r}")
-        if config.retrieval_labels not in ("planner", "scripted"):
-            raise ValueError(f"retrieval_labels must be 'planner' or 'scripted', got {config.retrieval_labels!r}")
+        if config.retrieval_labels not in SETTING_CHOICES["retrieval_labels"]:
+            raise ValueError(f"retrieval_labels must be one of {SETTING_CHOICES['retrieval_labels']}, got {config.retrieval_labels!r}")
         if config.retrieval_labels != "planner" and config.imitation_teacher != "hybrid-acting":
             raise ValueError(f"retrieval_labels applies to imitation_teacher 'hybrid-acting', not {config.imitation_teacher!r}")
         if config.teacher_inference not in INFERENCE_BACKENDS:
