@@ -3,8 +3,8 @@
 :class:`SearchThenRetrieve` runs a searcher (e.g. the hybrid planner) until perception first
 reports the target in a world's episode, and a retriever (e.g. the hierarchical OMPL planner)
 from then on. Beyond the papers: a diagnosis of where a method loses tasks (search or
-retrieval, ``scripts/handover.py``) and a way to combine the hybrid planner's search with the
-hierarchical planner's rearrangement (docs/decisions.md, issue 16).
+retrieval, ``scripts/handover.py``; the hybrid planner's search with the hierarchical planner's
+retrieval did not beat the hierarchical planner alone: docs/decisions.md, issue 16).
 """
 
 from __future__ import annotations
@@ -27,7 +27,9 @@ class SearchThenRetrieve(TensorDictModuleBase):
     recurrent searcher's state follows the real history; the retriever sees the episode from
     the hand-over on, its first observation flagged as an episode start (``"is_init"``), so a
     planner with an episode memory (the hierarchical one) starts afresh there. ``reseed`` and
-    ``reset`` go to both. Reads what its two parts read.
+    ``reset`` go to both. Reads what its two parts read. In a batch of worlds the retriever
+    decides for every world once any is handed over (the others' decisions are discarded);
+    evaluations run planners one world per task.
 
     Examples:
         >>> from occrl.baselines import ScriptedRetriever
