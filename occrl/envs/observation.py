@@ -218,8 +218,7 @@ def render_shelf_labels(
         >>> render_shelf_labels(np.array([[0.0, -0.1, 0.0]], np.float32), np.array([0.085], np.float32), [([], [])]).shape
         (1, 244, 250)
     """
-    poses = np.asarray(gripper_poses).astype(np.float64)
-    return render_labels_batch(poses, np.asarray(openings).reshape(-1).astype(np.float64), detections, canvas, fov)
+    return render_labels_batch(gripper_poses, openings, detections, canvas, fov)
 
 
 def crop_to_pixels(

@@ -144,7 +144,7 @@ def render_labels_batch(
     fov: float = C.CAMERA_FOV,
 ) -> np.ndarray:
     """:func:`render_labels` of several worlds, (B, H, W) uint8: gripper poses (B, 3), openings
-    (B,) and per world its detected polygons and target flags. The shadows of every world are
+    (B,) (any float dtype; computed in float64) and per world its detected polygons and target flags. The shadows of every world are
     computed in one vectorised call (each world's bit for bit its own); only the raster is per world.
 
     Examples:
@@ -157,6 +157,7 @@ def render_labels_batch(
         (True, (2, 244, 250))
     """
     poses = np.asarray(gripper_poses, dtype=float).reshape(-1, 3)
+    openings = np.asarray(openings, dtype=float).reshape(-1)
     _, _, walls_padded = _static_pixels(canvas)
     counts = [len(polys) for polys, _ in detections]
     most = max(counts, default=0)
