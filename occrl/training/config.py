@@ -109,6 +109,11 @@ class TrainConfig:
     reach, grasp and pull of a target the learner can see; from the planner's hand-over states it
     retrieves 72 % of the held-out stage-2 tasks against the planner's 58.5 %; as labels on the
     planner's states it made the planner worse, docs/decisions.md)."""
+    retrieval_takeover: float = 0.0
+    """"hybrid-acting": the share of episodes (drawn per world and episode) in which the privileged
+    scripted retriever acts instead of the planner from the first step whose observation shows the
+    target to the episode's end; its actions are then the labels, along its own trajectory
+    (occrl.training.dagger.RetrievalTakeover). 0: the planner acts throughout."""
     teacher_label_kinds: str = "all"
     """Which of the "hierarchical" teacher's steps are labels: "all", or comma-separated action kinds
     (occrl.baselines.hierarchical.ACTION_KINDS), e.g. "reach,extract": the teacher teaches the

@@ -7,7 +7,9 @@ probability ``beta`` so the learner sees successful endings too; ``beta`` decays
 that, like the learner, sees only detections and searches for a hidden target.
 :class:`OnlineTeacherPolicy` labels while collecting, for a teacher that keeps a memory of the
 episode (the hierarchical planner: accumulated detections, its stage and its current plan), which
-must see every observation of the learner's episode in order.
+must see every observation of the learner's episode in order. :class:`RetrievalTakeover` lets the
+privileged scripted retriever act in a share of the episodes from the first sight of the target,
+so that its retrieval labels lie on its own, consistent trajectories.
 """
 
 from __future__ import annotations
@@ -17,8 +19,17 @@ from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
 
 from occrl.baselines.scripted import ScriptedRetriever
+from occrl.envs import world_constants as C
 
-__all__ = ["ExpertMixPolicy", "OnlineTeacherPolicy", "label_with_expert", "label_with_planner", "relabel_retrieval", "target_in_view"]
+__all__ = [
+    "ExpertMixPolicy",
+    "OnlineTeacherPolicy",
+    "RetrievalTakeover",
+    "label_with_expert",
+    "label_with_planner",
+    "relabel_retrieval",
+    "target_in_view",
+]
 
 
 class ExpertMixPolicy(TensorDictModuleBase):
@@ -130,6 +141,85 @@ class OnlineTeacherPolicy(ExpertMixPolicy):
             tensordict.set("expert_weight", weight)
         tensordict.set("teacher_acts", acts.clone())
         tensordict.set("action", torch.where(acts, label, tensordict.get("action")))
+        return tensordict
+
+
+class RetrievalTakeover(TensorDictModuleBase):
+    """The planner acts; in a share of the episodes the privileged scripted retriever takes over
+    from the first step whose observation shows the target (:func:`target_in_view`) to the end
+    of the episode. Who may take over is drawn per world at each episode start (probability
+    ``share``, from a generator reseeded with :meth:`reseed`); the planner decides only for the
+    worlds it still acts in.
+
+    For ``imitation_teacher="hybrid-acting"`` with ``retrieval_takeover > 0``: the executed action
+    is the label, so the retrieval labels are the retriever's own trajectory (an approach kept
+    over steps, backed out of only when it fails), not its answers on states the planner reached
+    (``retrieval_labels="scripted"``, which made the planner worse: docs/decisions.md).
+    ``frames_taken_over`` / ``frames`` count the steps since :meth:`reset`.
+
+    Examples:
+        >>> import torch
+        >>> from occrl.baselines import ScriptedRetriever
+        >>> from occrl.envs import make_env
+        >>> from occrl.modules import make_occnet
+        >>> from occrl.planners import HybridPlanner
+        >>> from occrl.training.dagger import RetrievalTakeover
+        >>> net = make_occnet("paper").eval()
+        >>> env = make_env(batch_size=2, stage=2, seed=1).append_transform(net.make_primer())
+        >>> mix = RetrievalTakeover(HybridPlanner(net, m=2, h=2), ScriptedRetriever(), share=1.0)
+        >>> td = env.reset()  # the target is hidden in the first world, seen in the second
+        >>> mix(td.clone())["action"][1].tolist() == ScriptedRetriever()(td.clone())["action"][1].tolist()
+        True
+        >>> mix.frames_taken_over, mix.frames
+        (1, 2)
+    """
+
+    def __init__(self, planner: TensorDictModuleBase, retriever: ScriptedRetriever, share: float, seed: int = 0) -> None:
+        super().__init__()
+        if not 0.0 <= float(share) <= 1.0:
+            raise ValueError(f"share must be in [0, 1], got {share!r}")
+        self.planner, self.retriever, self.share = planner, retriever, float(share)
+        self.in_keys = list(
+            dict.fromkeys(["is_init", *planner.in_keys, *retriever.in_keys, ("objects", "detected"), ("objects", "type_id"), "target_type"])
+        )
+        self.out_keys = ["action"]
+        self.generator = torch.Generator().manual_seed(int(seed))
+        self.frames = self.frames_taken_over = 0
+        self._may = self._taken = None  # per world: may the retriever take over / has it
+
+    def reseed(self, seed: int) -> None:
+        self.generator.manual_seed(int(seed))
+        if hasattr(self.planner, "reseed"):
+            self.planner.reseed(seed)
+
+    def sync_weights(self) -> None:
+        self.planner.sync_weights()
+
+    def reset(self) -> None:
+        """Forget every world's episode, the retriever's plan caches and the counts."""
+        self.retriever.reset()
+        self._may = self._taken = None
+        self.frames = self.frames_taken_over = 0
+
+    def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+        flat = tensordict.reshape(-1)
+        n = flat.shape[0]
+        is_init = flat.get("is_init").reshape(n)
+        if self._may is None or self._may.shape[0] != n:
+            self._may, self._taken = torch.zeros(n, dtype=torch.bool), torch.zeros(n, dtype=torch.bool)
+        draw = torch.rand(n, generator=self.generator) < self.share
+        self._may = torch.where(is_init, draw, self._may)
+        self._taken = (self._taken & ~is_init) | (self._may & target_in_view(flat))
+        action = torch.zeros(n, C.ACTION_DIM)
+        planned = torch.nonzero(~self._taken).reshape(-1)
+        if planned.numel():
+            action[planned] = self.planner(flat[planned].select(*self.planner.in_keys).copy()).get("action").reshape(-1, C.ACTION_DIM)
+        taken = torch.nonzero(self._taken).reshape(-1)
+        if taken.numel():
+            action[taken] = self.retriever(flat[taken].select(*self.retriever.in_keys).copy()).get("action").reshape(-1, C.ACTION_DIM)
+        self.frames += n
+        self.frames_taken_over += int(taken.numel())
+        tensordict.set("action", action.reshape(*tensordict.shape, C.ACTION_DIM))
         return tensordict
 
 

@@ -39,7 +39,14 @@ from occrl.training.checkpoint import load_checkpoint, save_checkpoint
 from occrl.training.collection import TrainingCollector
 from occrl.training.config import SETTING_CHOICES, TrainConfig, training_device
 from occrl.training.curriculum import Curriculum
-from occrl.training.dagger import ExpertMixPolicy, OnlineTeacherPolicy, label_with_expert, label_with_planner, relabel_retrieval
+from occrl.training.dagger import (
+    ExpertMixPolicy,
+    OnlineTeacherPolicy,
+    RetrievalTakeover,
+    label_with_expert,
+    label_with_planner,
+    relabel_retrieval,
+)
 from occrl.training.learner import Learner
 from occrl.training.run_folder import (
     CHECKPOINT,
@@ -124,6 +131,10 @@ class Trainer:
             raise ValueError(f"retrieval_labels must be one of {SETTING_CHOICES['retrieval_labels']}, got {config.retrieval_labels!r}")
         if config.retrieval_labels != "planner" and config.imitation_teacher != "hybrid-acting":
             raise ValueError(f"retrieval_labels applies to imitation_teacher 'hybrid-acting', not {config.imitation_teacher!r}")
+        if not 0.0 <= config.retrieval_takeover <= 1.0:
+            raise ValueError(f"retrieval_takeover must be a share in [0, 1], got {config.retrieval_takeover!r}")
+        if config.retrieval_takeover > 0 and config.imitation_teacher != "hybrid-acting":
+            raise ValueError(f"retrieval_takeover applies to imitation_teacher 'hybrid-acting', not {config.imitation_teacher!r}")
         if config.teacher_inference not in INFERENCE_BACKENDS:
             raise ValueError(f"teacher_inference must be one of {INFERENCE_BACKENDS}, got {config.teacher_inference!r}")
         if config.imitation_teacher in ("hybrid", "hybrid-acting") and not config.heatmap:
@@ -175,6 +186,8 @@ class Trainer:
         # the hybrid-acting teacher plans on the live network; planners are reseeded every iteration
         if config.imitation_teacher == "hybrid-acting":
             self.expert = HybridPlanner(self.acting_net, m=4, h=4, seed=self.seed, inference=config.teacher_inference, batch_worlds=True)
+            if config.retrieval_takeover > 0:  # the scripted retriever acts in a share of the retrievals
+                self.expert = RetrievalTakeover(self.expert, ScriptedRetriever(), config.retrieval_takeover, seed=self.seed)
         elif config.imitation_teacher == "hierarchical":
             from occrl.baselines.hierarchical import HierarchicalPlanner  # needs OMPL
 
@@ -314,7 +327,7 @@ class Trainer:
             self.collection.policy.beta = beta
         if hasattr(self.expert, "reseed"):  # the planners
             self.expert.reseed(it_seed)
-        if isinstance(self.expert, HybridPlanner):  # it plans on the weights of this iteration
+        if isinstance(self.expert, (HybridPlanner, RetrievalTakeover)):  # it plans on the weights of this iteration
             self.expert.sync_weights()
         if hasattr(self.expert, "reset"):  # teachers with an episode memory
             self.expert.reset()
@@ -416,6 +429,8 @@ class Trainer:
                 }
                 if hybrid_rate is not None:
                     summary["hybrid_success_rate"] = hybrid_rate
+                if isinstance(self.expert, RetrievalTakeover):  # the share of frames the retriever acted in
+                    summary["takeover_share"] = self.expert.frames_taken_over / max(self.expert.frames, 1)
                 summary.update(self.collection.per_stage_success(data, episode_stats))
                 self._log(summary)
                 consistent = True

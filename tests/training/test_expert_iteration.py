@@ -108,3 +108,38 @@ def test_scripted_retrieval_labels_replace_the_planners_where_the_target_is_in_v
             seed=0,
             progress=False,
         )
+
+
+def test_retrieval_takeover_lets_the_scripted_retriever_act_from_the_first_sight_of_the_target(tmp_path):
+    """retrieval_takeover=1: in every episode the planner acts until the observation first shows
+    the target and the scripted retriever from there to the episode's end; the executed actions
+    are the labels."""
+    from occrl.baselines import ScriptedRetriever
+    from occrl.training.dagger import RetrievalTakeover, label_with_expert, target_in_view
+
+    cfg = get_train_config("tiny", imitation_iters=5, imitation_teacher="hybrid-acting", collector="single", retrieval_takeover=1.0)
+    tr = Trainer(cfg, tmp_path, seed=1, progress=False, tensorboard=False)
+    assert isinstance(tr.expert, RetrievalTakeover)
+    data = tr._collect()
+    shown = target_in_view(data)
+    is_init = data["is_init"].reshape(shown.shape)
+    taken = torch.zeros_like(shown)
+    for t in range(shown.shape[1]):  # from the first sight of the target to the episode's end
+        before = taken[:, t - 1] & ~is_init[:, t] if t else torch.zeros_like(shown[:, 0])
+        taken[:, t] = before | shown[:, t]
+    assert taken.any() and not taken.all()
+    assert tr.expert.frames_taken_over == int(taken.sum()) and tr.expert.frames == data.numel()
+    scripted = label_with_expert(data.clone(), ScriptedRetriever())["expert_action"]
+    assert torch.equal(data["action"][taken], scripted[taken])
+    assert not torch.equal(data["action"][~taken], scripted[~taken])
+    tr.train(iterations=1)
+    tr.close()
+    with pytest.raises(ValueError, match="retrieval_takeover applies to"):
+        Trainer(get_train_config("tiny", retrieval_takeover=0.5), tmp_path / "b", seed=0, progress=False)
+    with pytest.raises(ValueError, match="retrieval_takeover must be a share"):
+        Trainer(
+            get_train_config("tiny", imitation_teacher="hybrid-acting", collector="single", retrieval_takeover=1.5),
+            tmp_path / "c",
+            seed=0,
+            progress=False,
+        )
