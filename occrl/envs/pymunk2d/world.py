@@ -49,6 +49,7 @@ from occrl.envs.geometry import (
 )
 from occrl.envs.task import StepOutcome, task_outcome
 from occrl.envs.shelf_geometry import SHELF_WALLS, beyond_walls, gripper_polygons, inverse_pose, wall_polygons
+from occrl.envs.pymunk2d import joint_reset
 from occrl.envs.pymunk2d.physics_settings import DEFAULT_PHYSICS, INVALID_PENETRATION, PhysicsSettings
 from occrl.envs.scene import Scene
 
@@ -212,7 +213,8 @@ class ShelfWorld:
             self.bodies.append(body)
             self.shapes.append(pymunk.Poly(body, o.vertices.tolist()))
         space.add(self.control, self.gripper, *self.bodies)
-        self._constraints: list[pymunk.Constraint] = []
+        self._constraints: list[pymunk.Constraint] = []  # every joint in the space, in its order
+        self._kept_joints: list[pymunk.Constraint] = []  # drive and floor joints kept between actions (joint_reset)
         self._shapes_in_space = False
         self._filtered: int | None = None  # object whose shape is in the gripper's group
         for i in range(self.num_objects):
@@ -244,17 +246,24 @@ class ShelfWorld:
         hash ids and insertion order. Makes an action a function of the snapshot alone."""
         space = self.space
         if self._shapes_in_space:
-            space.remove(*self.gripper_shapes, *self.shapes, *self._constraints)
+            space.remove(*self.gripper_shapes, *self.shapes, *self._constraints[len(self._kept_joints) :])
         _cp.cpSpaceSetShapeIDCounter(space._space, self._shape_id_base)
-        static = space.static_body
         ps = self.physics
-        drive = _limited(pymunk.PivotJoint(self.control, self.gripper, (0, 0), (0, 0)), ps.gripper_max_speed, ps.gripper_max_force)
-        turn = _limited(pymunk.GearJoint(self.control, self.gripper, 0.0, 1.0), 10 * ps.gripper_max_speed, ps.gripper_max_torque)
-        cons = [drive, turn]
-        for i, body in enumerate(self.bodies):
-            force = float(self.floor_force[i])
-            cons.append(_limited(pymunk.PivotJoint(static, body, (0, 0), (0, 0)), 0.0, force))
-            cons.append(_limited(pymunk.GearJoint(static, body, 0.0, 1.0), 0.0, force * float(self.floor_arm[i])))
+        if joint_reset.AVAILABLE:  # the drive and floor joints are kept, their impulses zeroed: as new ones
+            if not self._kept_joints:
+                self._kept_joints = self._drive_and_floor_joints()
+                space.add(*self._kept_joints)
+            kept = self._kept_joints
+            for k in range(0, len(kept), 2):
+                joint_reset.zero_pivot(kept[k])
+                joint_reset.zero_gear(kept[k + 1])
+            for i in range(self.num_objects):  # the floor friction of this action's (noisy) physics
+                force = float(self.floor_force[i])
+                _cp.cpConstraintSetMaxForce(kept[2 + 2 * i]._constraint, force)
+                _cp.cpConstraintSetMaxForce(kept[3 + 2 * i]._constraint, force * float(self.floor_arm[i]))
+            cons = []
+        else:  # new joints every action (the removal above took the old ones out)
+            cons = self._drive_and_floor_joints()
         if self.held is not None:
             body = self.bodies[self.held]
             anchor = self.gripper.world_to_local(body.position)
@@ -276,7 +285,7 @@ class ShelfWorld:
                 self.shapes[self.held].filter = _IN_GRIPPER_GROUP
             self._filtered = self.held
         space.add(*self.gripper_shapes, *self.shapes, *cons)
-        self._constraints = cons
+        self._constraints = self._kept_joints + cons  # in the space's order: as new joints would be
         self._shapes_in_space = True
         _cp.cpSpaceSetCurrentTimeStep(space._space, 0.0)
         _cp.cpSpaceSetTimestamp(space._space, 0)
@@ -284,6 +293,20 @@ class ShelfWorld:
         # a zero-length position update clears it without moving the body.
         for body in (self.control, self.gripper, *self.bodies):
             _cp.cpBodyUpdatePosition(body._body, 0.0)
+
+    def _drive_and_floor_joints(self) -> list[pymunk.Constraint]:
+        """New joints: the gripper's drive (pivot, gear) and each object's floor friction (pivot,
+        gear), in this order."""
+        static = self.space.static_body
+        ps = self.physics
+        drive = _limited(pymunk.PivotJoint(self.control, self.gripper, (0, 0), (0, 0)), ps.gripper_max_speed, ps.gripper_max_force)
+        turn = _limited(pymunk.GearJoint(self.control, self.gripper, 0.0, 1.0), 10 * ps.gripper_max_speed, ps.gripper_max_torque)
+        cons = [drive, turn]
+        for i, body in enumerate(self.bodies):
+            force = float(self.floor_force[i])
+            cons.append(_limited(pymunk.PivotJoint(static, body, (0, 0), (0, 0)), 0.0, force))
+            cons.append(_limited(pymunk.GearJoint(static, body, 0.0, 1.0), 0.0, force * float(self.floor_arm[i])))
+        return cons
 
     # ------------------------------------------------------------------ state
     def gripper_pose(self) -> np.ndarray:
