@@ -2,7 +2,7 @@
 
 Usage:
     python benchmarks/planner_latency.py [--decisions 30] [--weights PATH] [--physics-change]
-                                         [--worlds-together [--inference onnxruntime]]
+                                         [--worlds-together] [--inference onnxruntime]
 
 Decisions are taken on observations from stage-2 episodes (the scripted retriever drives, so the
 states are realistic; the target is often hidden, giving up to 3 heat-map roots). Uses the
@@ -64,12 +64,12 @@ def main() -> None:
     parser.add_argument("--weights", default=None)
     parser.add_argument("--physics-change", action="store_true", help="4x4 decisions with the default and the 0.1.0 physics")
     parser.add_argument("--worlds-together", action="store_true", help="only: 8 worlds planned together against one at a time")
-    parser.add_argument("--inference", default="torch", choices=("torch", "onnxruntime"), help="the planners' network (--worlds-together)")
+    parser.add_argument("--inference", default="torch", choices=("torch", "onnxruntime"), help="the batched planners' network (the sequential reference always runs torch)")
     args = parser.parse_args()
     torch.set_num_threads(1)
     net, name = load_net(args.weights)
     obs = observations(net, args.decisions)
-    print(f"network: {name}; {len(obs)} decisions on stage-2 states; one core")
+    print(f"network: {name}; {len(obs)} decisions on stage-2 states; one core; batched planners' inference: {args.inference}")
     if args.physics_change:
         physics_change(net, obs)
         return
@@ -77,7 +77,7 @@ def main() -> None:
         worlds_together(net, obs, inference=args.inference)
         return
     for m, h in ((2, 2), (4, 4), (6, 6)):
-        planner = HybridPlanner(net, m=m, h=h, seed=0)
+        planner = HybridPlanner(net, m=m, h=h, seed=0, inference=args.inference)
         times, roots = [], []
         for td in obs:
             planner(td.clone())
@@ -91,7 +91,7 @@ def main() -> None:
     tb = ts = 0.0
     same = 0
     for k, td in enumerate(obs):
-        a = HybridPlanner(net, m=4, h=4, seed=k)
+        a = HybridPlanner(net, m=4, h=4, seed=k, inference=args.inference)
         b = HybridPlanner(net, m=4, h=4, seed=k, batched=False)
         t = time.perf_counter()
         act_a = a(td.clone())["action"]
@@ -103,8 +103,9 @@ def main() -> None:
     print(
         f"4x4 batched {1e3 * tb / len(obs):.1f} ms vs sequential {1e3 * ts / len(obs):.1f} ms per decision: {ts / tb:.1f}x faster; same action in {same}/{len(obs)} decisions"
     )
-    floor(net, obs)
-    breakdown(net, obs)
+    if args.inference == "torch":  # the floor and the profile are of the torch path
+        floor(net, obs)
+        breakdown(net, obs)
 
 
 def physics_change(net, obs, rounds: int = 2) -> None:
