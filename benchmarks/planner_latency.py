@@ -64,7 +64,12 @@ def main() -> None:
     parser.add_argument("--weights", default=None)
     parser.add_argument("--physics-change", action="store_true", help="4x4 decisions with the default and the 0.1.0 physics")
     parser.add_argument("--worlds-together", action="store_true", help="only: 8 worlds planned together against one at a time")
-    parser.add_argument("--inference", default="torch", choices=("torch", "onnxruntime"), help="the batched planners' network (the sequential reference always runs torch)")
+    parser.add_argument(
+        "--inference",
+        default="torch",
+        choices=("torch", "onnxruntime"),
+        help="the batched planners' network (the sequential reference always runs torch)",
+    )
     args = parser.parse_args()
     torch.set_num_threads(1)
     net, name = load_net(args.weights)
