@@ -104,9 +104,15 @@ def _layout_holds() -> bool:
     return pivot.impulse == 0.0 and gear.impulse == 0.0
 
 
-try:
-    AVAILABLE = _layout_holds()
-except Exception:  # noqa: BLE001 - any failure of the probe means: build new joints instead
-    AVAILABLE = False
+def _layout_checked() -> bool:
+    try:
+        return _layout_holds()
+    except Exception:  # noqa: BLE001 - any failure of the probe means: build new joints instead
+        return False
+
+
+#: Whether the struct layout was confirmed on this pymunk build (:func:`zero_pivot` and
+#: :func:`zero_gear` may be used); False: the worlds build new joints at every action.
+AVAILABLE: bool = _layout_checked()
 if not AVAILABLE:
     logger.info("Chipmunk's joint layout is not the one expected: worlds build new joints at every action (slower, same results)")
