@@ -327,7 +327,7 @@ class Trainer:
             self.collection.policy.beta = beta
         if hasattr(self.expert, "reseed"):  # the planners
             self.expert.reseed(it_seed)
-        if isinstance(self.expert, (HybridPlanner, RetrievalTakeover)):  # it plans on the weights of this iteration
+        if hasattr(self.expert, "sync_weights"):  # the planner teachers plan on the weights of this iteration
             self.expert.sync_weights()
         if hasattr(self.expert, "reset"):  # teachers with an episode memory
             self.expert.reset()

@@ -213,7 +213,7 @@ class ShelfWorld:
             self.bodies.append(body)
             self.shapes.append(pymunk.Poly(body, o.vertices.tolist()))
         space.add(self.control, self.gripper, *self.bodies)
-        self._constraints: list[pymunk.Constraint] = []  # every joint in the space, in its order
+        self._constraints: list[pymunk.Constraint] = []  # the joints built for this action (taken out at the next)
         self._kept_joints: list[pymunk.Constraint] = []  # drive and floor joints kept between actions (joint_reset)
         self._shapes_in_space = False
         self._filtered: int | None = None  # object whose shape is in the gripper's group
@@ -246,7 +246,7 @@ class ShelfWorld:
         hash ids and insertion order. Makes an action a function of the snapshot alone."""
         space = self.space
         if self._shapes_in_space:
-            space.remove(*self.gripper_shapes, *self.shapes, *self._constraints[len(self._kept_joints) :])
+            space.remove(*self.gripper_shapes, *self.shapes, *self._constraints)
         _cp.cpSpaceSetShapeIDCounter(space._space, self._shape_id_base)
         ps = self.physics
         if joint_reset.AVAILABLE:  # the drive and floor joints are kept, their impulses zeroed: as new ones
@@ -262,7 +262,7 @@ class ShelfWorld:
                 _cp.cpConstraintSetMaxForce(kept[2 + 2 * i]._constraint, force)
                 _cp.cpConstraintSetMaxForce(kept[3 + 2 * i]._constraint, force * float(self.floor_arm[i]))
             cons = []
-        else:  # new joints every action (the removal above took the old ones out)
+        else:  # new joints every action
             cons = self._drive_and_floor_joints()
         if self.held is not None:
             body = self.bodies[self.held]
@@ -285,7 +285,7 @@ class ShelfWorld:
                 self.shapes[self.held].filter = _IN_GRIPPER_GROUP
             self._filtered = self.held
         space.add(*self.gripper_shapes, *self.shapes, *cons)
-        self._constraints = self._kept_joints + cons  # in the space's order: as new joints would be
+        self._constraints = cons
         self._shapes_in_space = True
         _cp.cpSpaceSetCurrentTimeStep(space._space, 0.0)
         _cp.cpSpaceSetTimestamp(space._space, 0)
