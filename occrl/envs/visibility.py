@@ -19,6 +19,7 @@ from typing import Sequence
 import numpy as np
 
 from occrl.envs import world_constants as C
+from occrl.envs.geometry import next_vertices
 
 __all__ = ["visible_fractions", "visible_fractions_batch", "detect", "camera_pose", "angular_extents", "pad_polygons"]
 
@@ -42,11 +43,6 @@ def pad_polygons(polygons: Sequence[np.ndarray], size: int | None = None) -> np.
         out[k, : len(p)] = p
         out[k, len(p) :] = p[0]
     return out
-
-
-def _next_vertex(polys: np.ndarray) -> np.ndarray:
-    """Each vertex's successor (np.roll(polys, -1, axis=-2), without roll's overhead)."""
-    return np.concatenate([polys[..., 1:, :], polys[..., :1, :]], axis=-2)
 
 
 def angular_extents(polys: np.ndarray, cam: np.ndarray, with_tangents: bool = False):
@@ -75,7 +71,7 @@ def angular_extents(polys: np.ndarray, cam: np.ndarray, with_tangents: bool = Fa
     lo = centre + rel.min(-1)
     hi = centre + rel.max(-1)
     # camera inside a convex polygon <=> the camera is on the inner side of every edge
-    nxt = _next_vertex(polys)
+    nxt = next_vertices(polys)
     ex, ey = nxt[..., 0] - polys[..., 0], nxt[..., 1] - polys[..., 1]
     inside = np.all(ex * -dy - ey * -dx >= 0, axis=-1)
     if with_tangents:
@@ -187,7 +183,7 @@ def visible_fractions_batch(
     cx, cy, th = cams[:, 0, None, None], cams[:, 1, None, None], cams[:, 2, None]
     phi = mids + th + math.pi / 2
     rdx, rdy = np.cos(phi), np.sin(phi)  # (B, K)
-    e = _next_vertex(polys) - polys
+    e = next_vertices(polys) - polys
     nx, ny = e[..., 1], -e[..., 0]  # (B, P, V)
     h = nx * polys[..., 0] + ny * polys[..., 1]
     nc = nx * cx + ny * cy

@@ -49,7 +49,7 @@ from occrl.envs.geometry import (
 )
 from occrl.envs.task import StepOutcome, task_outcome
 from occrl.envs.shelf_geometry import SHELF_WALLS, beyond_walls, gripper_polygons, inverse_pose, wall_polygons
-from occrl.envs.pymunk2d import joint_reset
+from occrl.envs.pymunk2d import contact_list, joint_reset
 from occrl.envs.pymunk2d.physics_settings import DEFAULT_PHYSICS, INVALID_PENETRATION, PhysicsSettings
 from occrl.envs.scene import Scene
 
@@ -57,6 +57,8 @@ from occrl.envs.scene import Scene
 __all__ = ["ShelfWorld", "grasp_candidate"]
 
 logger = logging.getLogger(__name__)
+
+_AT_REST = (0.0, 0.0)
 
 _GRIPPER_GROUP = 1  # shapes in this group never collide with each other (gripper + held object)
 _IN_GRIPPER_GROUP = pymunk.ShapeFilter(group=_GRIPPER_GROUP)
@@ -110,7 +112,7 @@ def _near(polygons: list[np.ndarray], centre: np.ndarray, radius: float) -> list
     exact pre-test before the separating-axis test."""
     out = []
     for p in polygons:
-        c = p.mean(axis=0)
+        c = p.sum(axis=0) / len(p)  # p.mean(axis=0), the same values, without mean's overhead
         r = math.sqrt(float(((p - c) ** 2).sum(axis=1).max()))
         out.append(math.hypot(c[0] - centre[0], c[1] - centre[1]) <= r + radius)
     return out
@@ -216,6 +218,7 @@ class ShelfWorld:
         self._constraints: list[pymunk.Constraint] = []  # the joints built for this action (taken out at the next)
         self._kept_joints: list[pymunk.Constraint] = []  # drive and floor joints kept between actions (joint_reset)
         self._shapes_in_space = False
+        self._dynamic_shapes = [*self.gripper_shapes, *self.shapes]  # removed and re-added at every action
         self._filtered: int | None = None  # object whose shape is in the gripper's group
         for i in range(self.num_objects):
             self._set_physics(i, self.nominal_vertices[i], C.NOMINAL_DENSITY, C.NOMINAL_FRICTION)
@@ -231,22 +234,32 @@ class ShelfWorld:
         self.floor_arm[i] = math.sqrt(moment / mass)
 
     def _set_poses(self, gripper_pose: np.ndarray, object_poses: np.ndarray) -> None:
+        # Chipmunk's setters called directly (what pymunk's properties call, without their overhead)
         for body, pose in ((self.control, gripper_pose), (self.gripper, gripper_pose)):
-            body.position = (float(pose[0]), float(pose[1]))
-            body.angle = float(pose[2])
+            _cp.cpBodySetPosition(body._body, (float(pose[0]), float(pose[1])))
+            _cp.cpBodySetAngle(body._body, float(pose[2]))
         for body, pose in zip(self.bodies, object_poses):
-            body.position = (float(pose[0]), float(pose[1]))
-            body.angle = float(pose[2])
+            _cp.cpBodySetPosition(body._body, (float(pose[0]), float(pose[1])))
+            _cp.cpBodySetAngle(body._body, float(pose[2]))
+        self._bring_to_rest()
+
+    def _bring_to_rest(self) -> None:
+        """Zero every body's velocity and angular velocity."""
         for body in (self.control, self.gripper, *self.bodies):
-            body.velocity = (0.0, 0.0)
-            body.angular_velocity = 0.0
+            _cp.cpBodySetVelocity(body._body, _AT_REST)
+            _cp.cpBodySetAngularVelocity(body._body, 0.0)
 
     def _cold_start(self) -> None:
         """Put the solver in a canonical state: no cached contacts or joint impulses, fixed shape
         hash ids and insertion order. Makes an action a function of the snapshot alone."""
         space = self.space
         if self._shapes_in_space:
-            space.remove(*self.gripper_shapes, *self.shapes, *self._constraints)
+            # The shapes leave Chipmunk's space and come back below in the same order; pymunk's
+            # bookkeeping (which shapes the space holds) stays as it is, so Chipmunk is called
+            # directly: the same C calls pymunk's remove and add make, without their overhead.
+            for shape in self._dynamic_shapes:
+                _cp.cpSpaceRemoveShape(space._space, shape._shape)
+            space.remove(*self._constraints)
         _cp.cpSpaceSetShapeIDCounter(space._space, self._shape_id_base)
         ps = self.physics
         if joint_reset.AVAILABLE:  # the drive and floor joints are kept, their impulses zeroed: as new ones
@@ -284,7 +297,12 @@ class ShelfWorld:
             if self.held is not None:
                 self.shapes[self.held].filter = _IN_GRIPPER_GROUP
             self._filtered = self.held
-        space.add(*self.gripper_shapes, *self.shapes, *cons)
+        if self._shapes_in_space:
+            for shape in self._dynamic_shapes:
+                _cp.cpSpaceAddShape(space._space, shape._shape)
+            space.add(*cons)
+        else:
+            space.add(*self._dynamic_shapes, *cons)
         self._constraints = cons
         self._shapes_in_space = True
         _cp.cpSpaceSetCurrentTimeStep(space._space, 0.0)
@@ -310,12 +328,17 @@ class ShelfWorld:
 
     # ------------------------------------------------------------------ state
     def gripper_pose(self) -> np.ndarray:
-        g = self.gripper
-        return np.array([g.position.x, g.position.y, g.angle])
+        g = self.gripper._body
+        p = _cp.cpBodyGetPosition(g)
+        return np.array([p.x, p.y, _cp.cpBodyGetAngle(g)])
 
     def object_poses(self) -> np.ndarray:
         """(n, 3) centroid poses of all objects."""
-        return np.array([[b.position.x, b.position.y, b.angle] for b in self.bodies]).reshape(-1, 3)
+        out = []
+        for b in self.bodies:
+            p = _cp.cpBodyGetPosition(b._body)
+            out.append([p.x, p.y, _cp.cpBodyGetAngle(b._body)])
+        return np.array(out).reshape(-1, 3)
 
     def object_world_polygons(self) -> list[np.ndarray]:
         """Each object's nominal polygon (its type's shape) at its current pose."""
@@ -388,26 +411,26 @@ class ShelfWorld:
         tx = min(max(x + c * lat - s * fwd, C.GRIPPER_X_LIMITS[0]), C.GRIPPER_X_LIMITS[1])
         ty = min(max(y + s * lat + c * fwd, C.GRIPPER_Y_LIMITS[0]), C.GRIPPER_Y_LIMITS[1])
         tth = min(max(th + rot, C.GRIPPER_THETA_LIMITS[0]), C.GRIPPER_THETA_LIMITS[1])
-        self.control.position = (x, y)
-        self.control.angle = th
-        self.control.velocity = ((tx - x) / C.ACTION_DURATION, (ty - y) / C.ACTION_DURATION)
-        self.control.angular_velocity = (tth - th) / C.ACTION_DURATION
+        control = self.control._body
+        _cp.cpBodySetPosition(control, (x, y))
+        _cp.cpBodySetAngle(control, th)
+        _cp.cpBodySetVelocity(control, ((tx - x) / C.ACTION_DURATION, (ty - y) / C.ACTION_DURATION))
+        _cp.cpBodySetAngularVelocity(control, (tth - th) / C.ACTION_DURATION)
         ps = self.physics
         dt = C.ACTION_DURATION / ps.substeps
         fine = ps.contact_substeps
         # Chipmunk's step called directly: pymunk's wrapper only adds bookkeeping for changes
         # made during a step, and this world makes none.
         space, step = self.space._space, _cp.cpSpaceStep
+        head = contact_list.arbiter_head(self.gripper) if fine > 1 and contact_list.AVAILABLE else None
         for _ in range(ps.substeps):
-            if fine > 1 and self._gripper_touches():
+            if fine > 1 and self._gripper_touches(head):
                 for _ in range(fine):
                     step(space, dt / fine)
             else:
                 step(space, dt)
         # Quasi-static: everything comes to rest between actions.
-        for body in (self.control, self.gripper, *self.bodies):
-            body.velocity = (0.0, 0.0)
-            body.angular_velocity = 0.0
+        self._bring_to_rest()
         if ps.measure_validity:
             self.penetration, self.crossed_wall = self._measure_validity()
         else:
@@ -442,7 +465,11 @@ class ShelfWorld:
         centroids = np.array([polygon_centroid(polygons[i]) for i in np.flatnonzero(near)])
         return deepest, beyond_walls(centroids)
 
-    def _gripper_touches(self) -> bool:
+    def _gripper_touches(self, head=None) -> bool:
+        """Whether the gripper touches any shape; ``head``: the gripper's
+        :func:`~occrl.envs.pymunk2d.contact_list.arbiter_head` (the fast test), or None."""
+        if head is not None:
+            return contact_list.has_arbiters(head)
         touching = []
         self.gripper.each_arbiter(touching.append)
         return bool(touching)
