@@ -31,7 +31,7 @@ import torch
 
 from occrl.envs import world_constants as C
 from occrl.envs.geometry import transform_polygons
-from occrl.envs.render import DEFAULT_CANVAS, Canvas, labels_to_pixels, render_labels_batch
+from occrl.envs.render import DEFAULT_CANVAS, Canvas, labels_to_pixels, render_labels_at, render_labels_batch
 from occrl.envs.robot_frame import DEFAULT_FORWARD_OFFSET, DEFAULT_SIZE, DEFAULT_WINDOW, robot_centric_points
 from occrl.envs.shelf_geometry import SHELF_WALLS
 from occrl.envs.visibility import detect, visible_fractions_batch
@@ -256,5 +256,6 @@ def world_pixels(worlds: Sequence) -> torch.Tensor:
     """
     a = detection_arrays(worlds, worlds_visible_fractions(worlds))
     polygons = detected_world_polygons(a["detected"], a["type_id"], a["pose"], a["vertices"], a["num_vertices"], a["target_type"])
-    labels = render_shelf_labels(a["gripper_pose"], a["gripper_opening"], polygons)
-    return crop_to_pixels(labels, a["gripper_pose"])
+    # render_shelf_labels + crop_to_pixels, bit for bit, drawing only the part of the shelf the window shows
+    points = robot_centric_points(a["gripper_pose"].astype(np.float64))
+    return labels_to_pixels(render_labels_at(a["gripper_pose"], a["gripper_opening"], polygons, points))

@@ -30,6 +30,7 @@ __all__ = [
     "PALETTE",
     "render_labels",
     "render_labels_batch",
+    "render_labels_at",
     "render_true_scene",
     "labels_to_rgb",
     "labels_to_pixels",
@@ -86,12 +87,20 @@ class Canvas:
         p = np.asarray(points, dtype=float)
         return np.stack([(p[..., 0] - self.x0) / self.resolution - 0.5, (self.y1 - p[..., 1]) / self.resolution - 0.5], -1)
 
+    def pixel_indices(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(row, col, inside) of the pixel holding each shelf-frame point (..., 2): int64 indices
+        and whether they lie on the canvas."""
+        h, w = self.shape
+        col = np.floor((points[..., 0] - self.x0) / self.resolution).astype(np.int64)
+        row = np.floor((self.y1 - points[..., 1]) / self.resolution).astype(np.int64)
+        return row, col, (col >= 0) & (col < w) & (row >= 0) & (row < h)
+
     def lookup(self, labels: np.ndarray, points: np.ndarray, outside: int = LABELS["occluded"]) -> np.ndarray:
         """Nearest-pixel values of ``labels`` (..., H, W) at shelf-frame ``points`` (..., S, S, 2)."""
         h, w = labels.shape[-2:]
-        col = np.floor((points[..., 0] - self.x0) / self.resolution).astype(np.int64)
-        row = np.floor((self.y1 - points[..., 1]) / self.resolution).astype(np.int64)
-        valid = (col >= 0) & (col < w) & (row >= 0) & (row < h)
+        if (h, w) != self.shape:
+            raise ValueError(f"labels of shape (..., {h}, {w}) do not match the canvas's {self.shape}")
+        row, col, valid = self.pixel_indices(points)
         flat = labels.reshape(*labels.shape[:-2], h * w)
         idx = np.where(valid, row * w + col, 0).reshape(*labels.shape[:-2], -1)
         out = np.take_along_axis(flat, idx, axis=-1).reshape(valid.shape)
@@ -103,9 +112,20 @@ DEFAULT_CANVAS = Canvas()
 SHELF_VIEW = Canvas(x0=-0.32, x1=0.32, y0=-0.32, y1=0.40, resolution=0.0025)
 
 
-def _draw_pixel_polys(draw: ImageDraw.ImageDraw, pixel_polys: np.ndarray, label: int) -> None:
-    """Fill (P, V, 2) polygons given in pixel coordinates."""
-    for flat in pixel_polys.reshape(len(pixel_polys), -1).tolist():
+def _pillow_pixels(pixels: np.ndarray, row0: int) -> np.ndarray:
+    """Continuous (col, row) pixel coordinates as the integers Pillow draws with (it truncates
+    each coordinate towards zero, a C cast), in an image whose row 0 is canvas row ``row0``.
+    Pillow's polygon fill works on these integers alone, so an image of the canvas's rows
+    ``row0`` onwards holds exactly those rows of the whole canvas's image."""
+    ints = np.trunc(pixels).astype(np.int64)
+    if row0:
+        ints[..., 1] -= row0
+    return ints
+
+
+def _draw_pixel_polys(draw: ImageDraw.ImageDraw, pixel_polys: np.ndarray, label: int, row0: int = 0) -> None:
+    """Fill (P, V, 2) polygons given in (canvas) pixel coordinates."""
+    for flat in _pillow_pixels(pixel_polys, row0).reshape(len(pixel_polys), -1).tolist():
         draw.polygon(flat, fill=label)
 
 
@@ -156,6 +176,57 @@ def render_labels_batch(
         >>> bool((both[0] == render_labels(poses[0], 0.085, [box], [True])).all()), both.shape
         (True, (2, 244, 250))
     """
+    full = [(0, canvas.shape[0], canvas.shape[1])] * len(np.asarray(gripper_poses).reshape(-1, 3))
+    return np.stack(list(_render_regions(gripper_poses, openings, detections, canvas, fov, full)))
+
+
+def render_labels_at(
+    gripper_poses: np.ndarray,
+    openings: np.ndarray,
+    detections: Sequence[tuple[Sequence[np.ndarray], Sequence[bool]]],
+    points: np.ndarray,
+    canvas: Canvas = DEFAULT_CANVAS,
+    fov: float = C.CAMERA_FOV,
+    outside: int = LABELS["occluded"],
+) -> np.ndarray:
+    """The labels of :func:`render_labels_batch` at shelf-frame ``points`` (B, ..., 2) of each
+    world (nearest pixel, ``outside`` off the canvas), as :meth:`Canvas.lookup` reads them from
+    the whole maps, bit for bit; only the canvas rows and columns the points reach are drawn
+    (e.g. a robot-centric window: :func:`occrl.envs.observation.world_pixels`).
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.render import DEFAULT_CANVAS, render_labels_at, render_labels_batch
+        >>> from occrl.envs.robot_frame import robot_centric_points
+        >>> box = np.array([[-0.02, 0.18], [0.02, 0.18], [0.02, 0.22], [-0.02, 0.22]])
+        >>> poses, openings = np.array([[0.0, -0.1, 0.3]]), np.array([0.085])
+        >>> points = robot_centric_points(poses)
+        >>> window = render_labels_at(poses, openings, [([box], [True])], points)
+        >>> whole = render_labels_batch(poses, openings, [([box], [True])])
+        >>> window.shape, bool((window == DEFAULT_CANVAS.lookup(whole, points)).all())
+        ((1, 64, 64), True)
+    """
+    points = np.asarray(points, dtype=float)
+    row, col, valid = canvas.pixel_indices(points)
+    B = len(points)
+    flat_row, flat_col, flat_valid = row.reshape(B, -1), col.reshape(B, -1), valid.reshape(B, -1)
+    regions = []
+    for b in range(B):
+        if flat_valid[b].any():
+            r, c = flat_row[b][flat_valid[b]], flat_col[b][flat_valid[b]]
+            regions.append((int(r.min()), int(r.max()) + 1, int(c.max()) + 1))
+        else:
+            regions.append((0, 1, 1))
+    out = np.full(valid.shape, outside, dtype=np.uint8)
+    for b, labels in enumerate(_render_regions(gripper_poses, openings, detections, canvas, fov, regions)):
+        r, c, v = flat_row[b], flat_col[b], flat_valid[b]
+        out.reshape(B, -1)[b, v] = labels[r[v] - regions[b][0], c[v]]
+    return out
+
+
+def _render_regions(gripper_poses, openings, detections, canvas: Canvas, fov: float, regions):
+    """Each world's label map over its region (row0, row1, col1) of the canvas: rows row0 to
+    row1 - 1, columns 0 to col1 - 1 (uint8, row1 - row0 by col1)."""
     poses = np.asarray(gripper_poses, dtype=float).reshape(-1, 3)
     openings = np.asarray(openings, dtype=float).reshape(-1)
     _, _, walls_padded = _static_pixels(canvas)
@@ -177,35 +248,39 @@ def render_labels_batch(
     f_hi = v_hi + _FAR * d_hi / np.maximum(np.linalg.norm(d_hi, axis=-1, keepdims=True), 1e-9)
     shadow_pixels = canvas.to_pixels(np.stack([v_lo, v_hi, f_hi, f_lo], 2))
     arc = _FOV_ARC[fov] if fov in _FOV_ARC else _fov_arc(fov)
-    labels = np.empty((len(poses), *canvas.shape), dtype=np.uint8)
     for b, (polys, is_target) in enumerate(detections):
         cx, cy, th = (float(v) for v in poses[b])
-        img = Image.new("L", (canvas.shape[1], canvas.shape[0]), LABELS["observable"])
+        row0, row1, col1 = regions[b]
+        img = Image.new("L", (col1, row1 - row0), LABELS["observable"])
         draw = ImageDraw.Draw(img)
         # outside the field of view: the camera, then an arc around the back
         axis = th + math.pi / 2
         c, s = math.cos(axis), math.sin(axis)
         fov_out = np.concatenate([np.array([[cx, cy]]), np.array([cx, cy]) + _FAR * (arc @ np.array([[c, s], [-s, c]]))])
-        draw.polygon(canvas.to_pixels(fov_out).ravel().tolist(), fill=LABELS["occluded"])
+        draw.polygon(_pillow_pixels(canvas.to_pixels(fov_out), row0).ravel().tolist(), fill=LABELS["occluded"])
         cast = np.r_[0 : counts[b], most : padded.shape[1]]  # this world's objects, then the walls
-        _draw_pixel_polys(draw, shadow_pixels[b, cast][~inside[b, cast]], LABELS["occluded"])
-        _draw_shelf_and_bodies(draw, canvas, (cx, cy, th), float(openings[b]), padded[b, : counts[b]], [len(p) for p in polys], is_target)
-        labels[b] = np.asarray(img, dtype=np.uint8)
-    return labels
+        _draw_pixel_polys(draw, shadow_pixels[b, cast][~inside[b, cast]], LABELS["occluded"], row0)
+        _draw_shelf_and_bodies(
+            draw, canvas, (cx, cy, th), float(openings[b]), padded[b, : counts[b]], [len(p) for p in polys], is_target, row0
+        )
+        yield np.asarray(img, dtype=np.uint8)
 
 
-def _draw_shelf_and_bodies(draw, canvas: Canvas, gripper_pose, opening: float, padded: np.ndarray, counts, is_target) -> None:
+def _draw_shelf_and_bodies(
+    draw, canvas: Canvas, gripper_pose, opening: float, padded: np.ndarray, counts, is_target, row0: int = 0
+) -> None:
     """Walls, front edge, objects (padded polygons, ``counts`` real vertices) and the gripper, in
-    that order: what both the abstract observation and the true top-down view draw last."""
+    that order: what both the abstract observation and the true top-down view draw last (into an
+    image whose row 0 is canvas row ``row0``)."""
     walls, edge, _ = _static_pixels(canvas)
-    _draw_pixel_polys(draw, walls, LABELS["wall"])
-    draw.line(edge, fill=LABELS["edge"], width=2)
+    _draw_pixel_polys(draw, walls, LABELS["wall"], row0)
+    draw.line(_pillow_pixels(edge, row0).ravel().tolist(), fill=LABELS["edge"], width=2)
     if len(padded):
-        obj_px = canvas.to_pixels(padded).reshape(len(padded), -1).tolist()
+        obj_px = _pillow_pixels(canvas.to_pixels(padded), row0).reshape(len(padded), -1).tolist()
         for flat, count, tgt in zip(obj_px, counts, is_target):
             draw.polygon(flat[: 2 * count], fill=LABELS["target"] if tgt else LABELS["clutter"])
     parts = _GRIPPER_PARTS if opening == C.GRIPPER_STROKE else np.stack(gripper_polygons(opening))
-    _draw_pixel_polys(draw, canvas.to_pixels(transform_points(parts, gripper_pose)), LABELS["gripper"])
+    _draw_pixel_polys(draw, canvas.to_pixels(transform_points(parts, gripper_pose)), LABELS["gripper"], row0)
 
 
 def _fov_arc(fov: float) -> np.ndarray:
@@ -220,16 +295,16 @@ _FOV_ARC: dict[float, np.ndarray] = {}
 _GRIPPER_PARTS = np.stack(gripper_polygons(C.GRIPPER_STROKE))
 
 
-_STATIC_CACHE: dict[Canvas, tuple[np.ndarray, list, np.ndarray]] = {}
+_STATIC_CACHE: dict[Canvas, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
 
-def _static_pixels(canvas: Canvas) -> tuple[np.ndarray, list, np.ndarray]:
+def _static_pixels(canvas: Canvas) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Walls and front edge in pixel coordinates, and the walls padded for shadow casting
     (they never move)."""
     if canvas not in _STATIC_CACHE:
         walls = canvas.to_pixels(np.stack(SHELF_WALLS))
         edge = canvas.to_pixels(np.array([[-C.SHELF_HALF_WIDTH, 0.0], [C.SHELF_HALF_WIDTH, 0.0]]))
-        _STATIC_CACHE[canvas] = (walls, edge.ravel().tolist(), pad_polygons(SHELF_WALLS, C.MAX_VERTICES))
+        _STATIC_CACHE[canvas] = (walls, edge, pad_polygons(SHELF_WALLS, C.MAX_VERTICES))
     return _STATIC_CACHE[canvas]
 
 

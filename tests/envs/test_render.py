@@ -63,3 +63,52 @@ def test_the_window_turns_with_the_gripper():
     r, c = world_to_crop_pixel(turned, (0.0, -0.1, 0.5))
     assert (r, c) == world_to_crop_pixel(straight, GRIPPER)
     assert (td["pixels"][0, :, r, c] * 255).round().to(torch.uint8).tolist() == PALETTE[6].tolist()
+
+
+def test_rendering_only_the_window_equals_cropping_the_whole_map_bit_for_bit():
+    """render_labels_at draws only the canvas rows and columns its points reach (the planner's
+    roll-outs): the labels equal Canvas.lookup on the whole map, for stage-2 detections seen from
+    the env's poses and from poses moved and turned anywhere (windows partly off the canvas)."""
+    from occrl.envs.observation import detected_world_polygons, detection_arrays, worlds_visible_fractions
+    from occrl.envs.render import DEFAULT_CANVAS, render_labels_at, render_labels_batch
+    from occrl.envs.robot_frame import robot_centric_points
+
+    rng = np.random.default_rng(0)
+    env = make_env(batch_size=4, stage=2, noise=0.1, seed=3, heatmap_target=False)
+    td = env.reset()
+    checked = 0
+    for _ in range(8):
+        worlds = env.base_env.worlds
+        a = detection_arrays(worlds, worlds_visible_fractions(worlds))
+        polygons = detected_world_polygons(a["detected"], a["type_id"], a["pose"], a["vertices"], a["num_vertices"], a["target_type"])
+        poses = a["gripper_pose"].astype(np.float64)
+        moved = poses + np.c_[rng.uniform(-0.6, 0.6, (4, 2)), rng.uniform(-3.0, 3.0, 4)]
+        for p in (poses, moved):
+            points = robot_centric_points(p)
+            window = render_labels_at(p, a["gripper_opening"], polygons, points)
+            whole = DEFAULT_CANVAS.lookup(render_labels_batch(p, a["gripper_opening"], polygons), points)
+            assert np.array_equal(window, whole)
+            checked += int((whole != whole[:, :1, :1]).any())
+        td = env.step(env.rand_action(td))["next"]
+    assert checked >= 8  # the windows showed more than one class
+
+
+def test_pillow_draws_float_polygons_at_their_truncated_coordinates():
+    """What the renderer relies on to draw a part of the canvas (occrl.envs.render truncates the
+    coordinates itself and shifts them by whole rows): Pillow fills a polygon given in floats as
+    the one given in the floats truncated towards zero."""
+    from PIL import Image, ImageDraw
+
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        polygon = rng.uniform(-40.0, 140.0, size=(int(rng.integers(3, 8)), 2))
+        floats, ints = Image.new("L", (100, 90)), Image.new("L", (100, 90))
+        ImageDraw.Draw(floats).polygon(polygon.ravel().tolist(), fill=1)
+        ImageDraw.Draw(ints).polygon(np.trunc(polygon).astype(np.int64).ravel().tolist(), fill=1)
+        assert np.array_equal(np.asarray(floats), np.asarray(ints))
+    # rounding instead would differ: the test can tell
+    polygon = np.array([[10.7, 10.7], [60.7, 10.7], [60.7, 60.7]])
+    a, b = Image.new("L", (100, 90)), Image.new("L", (100, 90))
+    ImageDraw.Draw(a).polygon(polygon.ravel().tolist(), fill=1)
+    ImageDraw.Draw(b).polygon(np.round(polygon).astype(np.int64).ravel().tolist(), fill=1)
+    assert not np.array_equal(np.asarray(a), np.asarray(b))
