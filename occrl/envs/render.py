@@ -112,20 +112,23 @@ DEFAULT_CANVAS = Canvas()
 SHELF_VIEW = Canvas(x0=-0.32, x1=0.32, y0=-0.32, y1=0.40, resolution=0.0025)
 
 
-def _pillow_pixels(pixels: np.ndarray, row0: int) -> np.ndarray:
+def _pillow_pixels(pixels: np.ndarray, row0: int | np.ndarray) -> np.ndarray:
     """Continuous (col, row) pixel coordinates as the integers Pillow draws with (it truncates
-    each coordinate towards zero, a C cast), in an image whose row 0 is canvas row ``row0``.
-    Pillow's polygon fill works on these integers alone, so an image of the canvas's rows
-    ``row0`` onwards holds exactly those rows of the whole canvas's image."""
+    each coordinate towards zero, a C cast), in an image whose row 0 is canvas row ``row0`` (an
+    int, or one per leading index). Pillow's polygon fill works on these integers alone, so an
+    image of the canvas's rows ``row0`` onwards holds exactly those rows of the whole canvas's
+    image."""
     ints = np.trunc(pixels).astype(np.int64)
-    if row0:
+    if np.ndim(row0):
+        ints[..., 1] -= np.asarray(row0).reshape(-1, *[1] * (ints.ndim - 2))
+    elif row0:
         ints[..., 1] -= row0
     return ints
 
 
-def _draw_pixel_polys(draw: ImageDraw.ImageDraw, pixel_polys: np.ndarray, label: int, row0: int = 0) -> None:
-    """Fill (P, V, 2) polygons given in (canvas) pixel coordinates."""
-    for flat in _pillow_pixels(pixel_polys, row0).reshape(len(pixel_polys), -1).tolist():
+def _fill_polygons(draw: ImageDraw.ImageDraw, pillow_polys: np.ndarray, label: int) -> None:
+    """Fill (P, V, 2) polygons given as Pillow's integer coordinates."""
+    for flat in pillow_polys.reshape(len(pillow_polys), -1).tolist():
         draw.polygon(flat, fill=label)
 
 
@@ -248,6 +251,11 @@ def _render_regions(gripper_poses, openings, detections, canvas: Canvas, fov: fl
     f_hi = v_hi + _FAR * d_hi / np.maximum(np.linalg.norm(d_hi, axis=-1, keepdims=True), 1e-9)
     shadow_pixels = canvas.to_pixels(np.stack([v_lo, v_hi, f_hi, f_lo], 2))
     arc = _FOV_ARC[fov] if fov in _FOV_ARC else _fov_arc(fov)
+    # Pillow's integer coordinates of every world's shadows and objects in two calls (elementwise:
+    # the same values as world by world)
+    row0s = np.array([region[0] for region in regions], dtype=np.int64)
+    shadow_ints = _pillow_pixels(shadow_pixels, row0s)
+    object_ints = _pillow_pixels(canvas.to_pixels(padded[:, :most]), row0s)
     for b, (polys, is_target) in enumerate(detections):
         cx, cy, th = (float(v) for v in poses[b])
         row0, row1, col1 = regions[b]
@@ -259,28 +267,26 @@ def _render_regions(gripper_poses, openings, detections, canvas: Canvas, fov: fl
         fov_out = np.concatenate([np.array([[cx, cy]]), np.array([cx, cy]) + _FAR * (arc @ np.array([[c, s], [-s, c]]))])
         draw.polygon(_pillow_pixels(canvas.to_pixels(fov_out), row0).ravel().tolist(), fill=LABELS["occluded"])
         cast = np.r_[0 : counts[b], most : padded.shape[1]]  # this world's objects, then the walls
-        _draw_pixel_polys(draw, shadow_pixels[b, cast][~inside[b, cast]], LABELS["occluded"], row0)
+        _fill_polygons(draw, shadow_ints[b, cast][~inside[b, cast]], LABELS["occluded"])
         _draw_shelf_and_bodies(
-            draw, canvas, (cx, cy, th), float(openings[b]), padded[b, : counts[b]], [len(p) for p in polys], is_target, row0
+            draw, canvas, (cx, cy, th), float(openings[b]), object_ints[b, : counts[b]], [len(p) for p in polys], is_target, row0
         )
         yield np.asarray(img, dtype=np.uint8)
 
 
 def _draw_shelf_and_bodies(
-    draw, canvas: Canvas, gripper_pose, opening: float, padded: np.ndarray, counts, is_target, row0: int = 0
+    draw, canvas: Canvas, gripper_pose, opening: float, object_ints: np.ndarray, counts, is_target, row0: int = 0
 ) -> None:
-    """Walls, front edge, objects (padded polygons, ``counts`` real vertices) and the gripper, in
-    that order: what both the abstract observation and the true top-down view draw last (into an
-    image whose row 0 is canvas row ``row0``)."""
+    """Walls, front edge, objects (padded polygons as Pillow's integer coordinates, ``counts``
+    real vertices) and the gripper, in that order: what both the abstract observation and the
+    true top-down view draw last (into an image whose row 0 is canvas row ``row0``)."""
     walls, edge, _ = _static_pixels(canvas)
-    _draw_pixel_polys(draw, walls, LABELS["wall"], row0)
+    _fill_polygons(draw, _pillow_pixels(walls, row0), LABELS["wall"])
     draw.line(_pillow_pixels(edge, row0).ravel().tolist(), fill=LABELS["edge"], width=2)
-    if len(padded):
-        obj_px = _pillow_pixels(canvas.to_pixels(padded), row0).reshape(len(padded), -1).tolist()
-        for flat, count, tgt in zip(obj_px, counts, is_target):
-            draw.polygon(flat[: 2 * count], fill=LABELS["target"] if tgt else LABELS["clutter"])
+    for flat, count, tgt in zip(object_ints.reshape(len(object_ints), 2 * C.MAX_VERTICES).tolist(), counts, is_target):
+        draw.polygon(flat[: 2 * count], fill=LABELS["target"] if tgt else LABELS["clutter"])
     parts = _GRIPPER_PARTS if opening == C.GRIPPER_STROKE else np.stack(gripper_polygons(opening))
-    _draw_pixel_polys(draw, canvas.to_pixels(transform_points(parts, gripper_pose)), LABELS["gripper"], row0)
+    _fill_polygons(draw, _pillow_pixels(canvas.to_pixels(transform_points(parts, gripper_pose)), row0), LABELS["gripper"])
 
 
 def _fov_arc(fov: float) -> np.ndarray:
@@ -327,7 +333,8 @@ def render_true_scene(
     """
     img = Image.new("L", (canvas.shape[1], canvas.shape[0]), LABELS["observable"])
     padded = pad_polygons(object_polygons, C.MAX_VERTICES) if len(object_polygons) else np.zeros((0, C.MAX_VERTICES, 2))
-    _draw_shelf_and_bodies(ImageDraw.Draw(img), canvas, gripper_pose, opening, padded, [len(p) for p in object_polygons], is_target)
+    object_ints = _pillow_pixels(canvas.to_pixels(padded), 0)
+    _draw_shelf_and_bodies(ImageDraw.Draw(img), canvas, gripper_pose, opening, object_ints, [len(p) for p in object_polygons], is_target)
     return np.asarray(img, dtype=np.uint8)
 
 
