@@ -20,7 +20,6 @@ import torch
 from PIL import Image, ImageDraw
 
 from occrl.envs import world_constants as C
-from occrl.envs.geometry import transform_points
 from occrl.envs.visibility import pad_polygons, angular_extents
 from occrl.envs.shelf_geometry import SHELF_WALLS, gripper_polygons
 
@@ -212,19 +211,19 @@ def render_labels_at(
     points = np.asarray(points, dtype=float)
     row, col, valid = canvas.pixel_indices(points)
     B = len(points)
-    flat_row, flat_col, flat_valid = row.reshape(B, -1), col.reshape(B, -1), valid.reshape(B, -1)
-    regions = []
-    for b in range(B):
-        if flat_valid[b].any():
-            r, c = flat_row[b][flat_valid[b]], flat_col[b][flat_valid[b]]
-            regions.append((int(r.min()), int(r.max()) + 1, int(c.max()) + 1))
-        else:
-            regions.append((0, 1, 1))
-    out = np.full(valid.shape, outside, dtype=np.uint8)
+    row, col, valid = row.reshape(B, -1), col.reshape(B, -1), valid.reshape(B, -1)
+    # each world's region: the rows and columns its points reach on the canvas (a 1 x 1 corner when none)
+    seen = valid.any(axis=1)
+    row0 = np.where(seen, np.where(valid, row, canvas.shape[0]).min(axis=1), 0)
+    row1 = np.where(seen, np.where(valid, row, -1).max(axis=1) + 1, 1)
+    col1 = np.where(seen, np.where(valid, col, -1).max(axis=1) + 1, 1)
+    regions = list(zip(row0.tolist(), row1.tolist(), col1.tolist()))
+    out = np.empty(valid.shape, dtype=np.uint8)
     for b, labels in enumerate(_render_regions(gripper_poses, openings, detections, canvas, fov, regions)):
-        r, c, v = flat_row[b], flat_col[b], flat_valid[b]
-        out.reshape(B, -1)[b, v] = labels[r[v] - regions[b][0], c[v]]
-    return out
+        r = np.clip(row[b] - row0[b], 0, labels.shape[0] - 1)
+        c = np.clip(col[b], 0, labels.shape[1] - 1)
+        out[b] = np.where(valid[b], labels[r, c], outside)
+    return out.reshape(points.shape[:-1])
 
 
 def _render_regions(gripper_poses, openings, detections, canvas: Canvas, fov: float, regions):
@@ -251,42 +250,59 @@ def _render_regions(gripper_poses, openings, detections, canvas: Canvas, fov: fl
     f_hi = v_hi + _FAR * d_hi / np.maximum(np.linalg.norm(d_hi, axis=-1, keepdims=True), 1e-9)
     shadow_pixels = canvas.to_pixels(np.stack([v_lo, v_hi, f_hi, f_lo], 2))
     arc = _FOV_ARC[fov] if fov in _FOV_ARC else _fov_arc(fov)
-    # Pillow's integer coordinates of every world's shadows and objects in two calls (elementwise:
-    # the same values as world by world)
+    # outside the field of view: the camera, then an arc around the back
+    fov_out = np.empty((len(poses), 1 + len(arc), 2))
+    for b in range(len(poses)):
+        cx, cy, th = (float(v) for v in poses[b])
+        axis = th + math.pi / 2
+        c, s = math.cos(axis), math.sin(axis)
+        fov_out[b, 0] = cx, cy
+        fov_out[b, 1:] = np.array([cx, cy]) + _FAR * (arc @ np.array([[c, s], [-s, c]]))
+    # Pillow's integer coordinates of every world's polygons, a few calls for all worlds
+    # (elementwise arithmetic: the same values as world by world)
     row0s = np.array([region[0] for region in regions], dtype=np.int64)
+    fov_ints = _pillow_pixels(canvas.to_pixels(fov_out), row0s)
     shadow_ints = _pillow_pixels(shadow_pixels, row0s)
     object_ints = _pillow_pixels(canvas.to_pixels(padded[:, :most]), row0s)
+    gripper_ints = _pillow_pixels(canvas.to_pixels(_gripper_world_polygons(poses, openings)), row0s)
+    walls, edge, _ = _static_pixels(canvas)
+    walls_ints, edge_ints = _pillow_pixels(walls, 0), _pillow_pixels(edge, 0)
     for b, (polys, is_target) in enumerate(detections):
-        cx, cy, th = (float(v) for v in poses[b])
         row0, row1, col1 = regions[b]
         img = Image.new("L", (col1, row1 - row0), LABELS["observable"])
         draw = ImageDraw.Draw(img)
-        # outside the field of view: the camera, then an arc around the back
-        axis = th + math.pi / 2
-        c, s = math.cos(axis), math.sin(axis)
-        fov_out = np.concatenate([np.array([[cx, cy]]), np.array([cx, cy]) + _FAR * (arc @ np.array([[c, s], [-s, c]]))])
-        draw.polygon(_pillow_pixels(canvas.to_pixels(fov_out), row0).ravel().tolist(), fill=LABELS["occluded"])
+        draw.polygon(fov_ints[b].ravel().tolist(), fill=LABELS["occluded"])
         cast = np.r_[0 : counts[b], most : padded.shape[1]]  # this world's objects, then the walls
         _fill_polygons(draw, shadow_ints[b, cast][~inside[b, cast]], LABELS["occluded"])
+        shift = np.array([0, row0])
         _draw_shelf_and_bodies(
-            draw, canvas, (cx, cy, th), float(openings[b]), object_ints[b, : counts[b]], [len(p) for p in polys], is_target, row0
+            draw, walls_ints - shift, edge_ints - shift, object_ints[b, : counts[b]], [len(p) for p in polys], is_target, gripper_ints[b]
         )
-        yield np.asarray(img, dtype=np.uint8)
+        yield np.frombuffer(img.tobytes(), dtype=np.uint8).reshape(row1 - row0, col1)
 
 
-def _draw_shelf_and_bodies(
-    draw, canvas: Canvas, gripper_pose, opening: float, object_ints: np.ndarray, counts, is_target, row0: int = 0
-) -> None:
-    """Walls, front edge, objects (padded polygons as Pillow's integer coordinates, ``counts``
-    real vertices) and the gripper, in that order: what both the abstract observation and the
-    true top-down view draw last (into an image whose row 0 is canvas row ``row0``)."""
-    walls, edge, _ = _static_pixels(canvas)
-    _fill_polygons(draw, _pillow_pixels(walls, row0), LABELS["wall"])
-    draw.line(_pillow_pixels(edge, row0).ravel().tolist(), fill=LABELS["edge"], width=2)
+def _gripper_world_polygons(poses: np.ndarray, openings: np.ndarray) -> np.ndarray:
+    """(B, parts, 4, 2) shelf-frame gripper outlines (:func:`gripper_polygons`) at poses (B, 3)
+    with openings (B,); :func:`~occrl.envs.geometry.transform_points` world by world, the same values."""
+    parts = np.stack([_GRIPPER_PARTS if o == C.GRIPPER_STROKE else np.stack(gripper_polygons(o)) for o in openings.tolist()])
+    cos_sin = np.array([(math.cos(th), math.sin(th)) for th in poses[:, 2].tolist()]).reshape(-1, 2, 1, 1)
+    c, s = cos_sin[:, 0], cos_sin[:, 1]
+    x, y = poses[:, 0, None, None], poses[:, 1, None, None]
+    out = np.empty_like(parts)
+    out[..., 0] = c * parts[..., 0] - s * parts[..., 1] + x
+    out[..., 1] = s * parts[..., 0] + c * parts[..., 1] + y
+    return out
+
+
+def _draw_shelf_and_bodies(draw, walls_ints, edge_ints, object_ints: np.ndarray, counts, is_target, gripper_ints) -> None:
+    """Walls, front edge, objects (padded polygons, ``counts`` real vertices) and the gripper, in
+    that order, all as Pillow's integer coordinates: what both the abstract observation and the
+    true top-down view draw last."""
+    _fill_polygons(draw, walls_ints, LABELS["wall"])
+    draw.line(edge_ints.ravel().tolist(), fill=LABELS["edge"], width=2)
     for flat, count, tgt in zip(object_ints.reshape(len(object_ints), 2 * C.MAX_VERTICES).tolist(), counts, is_target):
         draw.polygon(flat[: 2 * count], fill=LABELS["target"] if tgt else LABELS["clutter"])
-    parts = _GRIPPER_PARTS if opening == C.GRIPPER_STROKE else np.stack(gripper_polygons(opening))
-    _fill_polygons(draw, _pillow_pixels(canvas.to_pixels(transform_points(parts, gripper_pose)), row0), LABELS["gripper"])
+    _fill_polygons(draw, gripper_ints, LABELS["gripper"])
 
 
 def _fov_arc(fov: float) -> np.ndarray:
@@ -333,8 +349,10 @@ def render_true_scene(
     """
     img = Image.new("L", (canvas.shape[1], canvas.shape[0]), LABELS["observable"])
     padded = pad_polygons(object_polygons, C.MAX_VERTICES) if len(object_polygons) else np.zeros((0, C.MAX_VERTICES, 2))
-    object_ints = _pillow_pixels(canvas.to_pixels(padded), 0)
-    _draw_shelf_and_bodies(ImageDraw.Draw(img), canvas, gripper_pose, opening, object_ints, [len(p) for p in object_polygons], is_target)
+    walls, edge, _ = _static_pixels(canvas)
+    gripper = _gripper_world_polygons(np.asarray(gripper_pose, dtype=float).reshape(1, 3), np.array([float(opening)]))[0]
+    ints = [_pillow_pixels(px, 0) for px in (walls, edge, canvas.to_pixels(padded), canvas.to_pixels(gripper))]
+    _draw_shelf_and_bodies(ImageDraw.Draw(img), *ints[:3], [len(p) for p in object_polygons], is_target, ints[3])
     return np.asarray(img, dtype=np.uint8)
 
 
@@ -343,7 +361,8 @@ _PALETTE_CHANNELS = np.ascontiguousarray((PALETTE.astype(np.float32) / 255.0).T)
 
 def labels_to_pixels(labels: np.ndarray) -> torch.Tensor:
     """(B, S, S) labels -> (B, 3, S, S) float32 colours in [0, 1], the network input.
-    (numpy fancy indexing: ~10x faster than the torch equivalent on CPU.)
+    (One ``np.take`` per channel into the output: ~3x faster than numpy's fancy indexing with a
+    transpose on 12 x 64 x 64 labels, which is itself several times faster than torch's.)
 
     Examples:
         >>> import numpy as np
@@ -352,7 +371,11 @@ def labels_to_pixels(labels: np.ndarray) -> torch.Tensor:
         >>> px.shape, px.dtype, float(px.min())  # occluded space is white
         (torch.Size([2, 3, 64, 64]), torch.float32, 1.0)
     """
-    return torch.from_numpy(np.ascontiguousarray(_PALETTE_CHANNELS[:, labels].swapaxes(0, 1)))
+    labels = np.asarray(labels)
+    out = np.empty((labels.shape[0], 3, *labels.shape[1:]), dtype=np.float32)
+    for channel in range(3):
+        np.take(_PALETTE_CHANNELS[channel], labels, out=out[:, channel])
+    return torch.from_numpy(out)
 
 
 def labels_to_rgb(labels: np.ndarray) -> np.ndarray:
