@@ -220,9 +220,8 @@ def render_labels_at(
     regions = list(zip(row0.tolist(), row1.tolist(), col1.tolist()))
     out = np.empty(valid.shape, dtype=np.uint8)
     for b, labels in enumerate(_render_regions(gripper_poses, openings, detections, canvas, fov, regions)):
-        r = np.clip(row[b] - row0[b], 0, labels.shape[0] - 1)
-        c = np.clip(col[b], 0, labels.shape[1] - 1)
-        out[b] = np.where(valid[b], labels[r, c], outside)
+        v = valid[b]  # points off the canvas read pixel (0, 0) and are replaced by ``outside``
+        out[b] = np.where(v, labels[np.where(v, row[b] - row0[b], 0), np.where(v, col[b], 0)], outside)
     return out.reshape(points.shape[:-1])
 
 
@@ -267,12 +266,13 @@ def _render_regions(gripper_poses, openings, detections, canvas: Canvas, fov: fl
     gripper_ints = _pillow_pixels(canvas.to_pixels(_gripper_world_polygons(poses, openings)), row0s)
     walls, edge, _ = _static_pixels(canvas)
     walls_ints, edge_ints = _pillow_pixels(walls, 0), _pillow_pixels(edge, 0)
+    casters = np.arange(padded.shape[1])
     for b, (polys, is_target) in enumerate(detections):
         row0, row1, col1 = regions[b]
         img = Image.new("L", (col1, row1 - row0), LABELS["observable"])
         draw = ImageDraw.Draw(img)
         draw.polygon(fov_ints[b].ravel().tolist(), fill=LABELS["occluded"])
-        cast = np.r_[0 : counts[b], most : padded.shape[1]]  # this world's objects, then the walls
+        cast = np.concatenate((casters[: counts[b]], casters[most:]))  # this world's objects, then the walls
         _fill_polygons(draw, shadow_ints[b, cast][~inside[b, cast]], LABELS["occluded"])
         shift = np.array([0, row0])
         _draw_shelf_and_bodies(

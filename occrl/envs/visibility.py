@@ -171,10 +171,11 @@ def visible_fractions_batch(
     # each camera's elementary intervals, padded to the longest with empty ones
     mids_of, widths_of = [], []
     for b in range(B):
-        cuts = np.unique(np.concatenate([[-half, half], clo[b][in_view[b]], chi[b][in_view[b]]]))
+        cuts = np.sort(np.concatenate([[-half, half], clo[b][in_view[b]], chi[b][in_view[b]]]))
+        cuts = cuts[np.concatenate([[True], cuts[1:] != cuts[:-1]])]  # np.unique's own steps, without its overhead
         cuts = cuts[(cuts >= -half) & (cuts <= half)]
         mids_of.append(0.5 * (cuts[:-1] + cuts[1:]))
-        widths_of.append(np.diff(cuts))
+        widths_of.append(cuts[1:] - cuts[:-1])
     K = max(len(m) for m in mids_of) if B else 0
     mids = np.zeros((B, K))
     for b, m in enumerate(mids_of):
@@ -208,7 +209,7 @@ def visible_fractions_batch(
         owned = np.isfinite(d.min(-1))
         visible = np.bincount(owner[owned], weights=widths_of[b][owned], minlength=P)[:n]
         extent = (hi[b] - lo[b])[:n]
-        frac = np.clip(np.where(extent > 0, visible / np.maximum(extent, 1e-12), 0.0), 0.0, 1.0)
+        frac = np.minimum(np.maximum(np.where(extent > 0, visible / np.maximum(extent, 1e-12), 0.0), 0.0), 1.0)
         if hidden[b] is not None:
             frac[hidden[b]] = 0.0
         out.append(frac)

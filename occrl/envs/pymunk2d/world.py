@@ -118,6 +118,19 @@ def _near(polygons: list[np.ndarray], centre: np.ndarray, radius: float) -> list
     return out
 
 
+_GRIPPER_MOMENTS: dict[float, float] = {}
+
+
+def _gripper_moment(mass: float) -> float:
+    """The gripper's moment of inertia at this mass (its parts' polygons, mass spread by area);
+    the same for every world, so computed once per mass."""
+    if mass not in _GRIPPER_MOMENTS:
+        polys = gripper_polygons(C.GRIPPER_STROKE)
+        total_area = sum(polygon_area(p) for p in polys)
+        _GRIPPER_MOMENTS[mass] = sum(pymunk.moment_for_poly(mass * polygon_area(p) / total_area, p.tolist()) for p in polys)
+    return _GRIPPER_MOMENTS[mass]
+
+
 class ShelfWorld:
     """A pymunk shelf world built from a :class:`~occrl.envs.Scene`.
 
@@ -198,8 +211,7 @@ class ShelfWorld:
         mass = self.physics.gripper_mass
         self.gripper = pymunk.Body(mass=mass, moment=1.0)
         polys = gripper_polygons(C.GRIPPER_STROKE)
-        total_area = sum(polygon_area(p) for p in polys)
-        self.gripper.moment = sum(pymunk.moment_for_poly(mass * polygon_area(p) / total_area, p.tolist()) for p in polys)
+        self.gripper.moment = _gripper_moment(mass)
         self.gripper_shapes = []
         for poly in polys:
             s = pymunk.Poly(self.gripper, poly.tolist())
