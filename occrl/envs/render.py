@@ -111,17 +111,15 @@ DEFAULT_CANVAS = Canvas()
 SHELF_VIEW = Canvas(x0=-0.32, x1=0.32, y0=-0.32, y1=0.40, resolution=0.0025)
 
 
-def _pillow_pixels(pixels: np.ndarray, row0: int | np.ndarray) -> np.ndarray:
+def _pillow_pixels(pixels: np.ndarray, row0: np.ndarray | None = None) -> np.ndarray:
     """Continuous (col, row) pixel coordinates as the integers Pillow draws with (it truncates
-    each coordinate towards zero, a C cast), in an image whose row 0 is canvas row ``row0`` (an
-    int, or one per leading index). Pillow's polygon fill works on these integers alone, so an
-    image of the canvas's rows ``row0`` onwards holds exactly those rows of the whole canvas's
-    image."""
+    each coordinate towards zero, a C cast); with ``row0`` (one canvas row per leading index) in
+    an image whose row 0 is that canvas row. Pillow's polygon fill works on these integers alone,
+    so an image of the canvas's rows ``row0`` onwards holds exactly those rows of the whole
+    canvas's image."""
     ints = np.trunc(pixels).astype(np.int64)
-    if np.ndim(row0):
+    if row0 is not None:
         ints[..., 1] -= np.asarray(row0).reshape(-1, *[1] * (ints.ndim - 2))
-    elif row0:
-        ints[..., 1] -= row0
     return ints
 
 
@@ -265,7 +263,7 @@ def _render_regions(gripper_poses, openings, detections, canvas: Canvas, fov: fl
     object_ints = _pillow_pixels(canvas.to_pixels(padded[:, :most]), row0s)
     gripper_ints = _pillow_pixels(canvas.to_pixels(_gripper_world_polygons(poses, openings)), row0s)
     walls, edge, _ = _static_pixels(canvas)
-    walls_ints, edge_ints = _pillow_pixels(walls, 0), _pillow_pixels(edge, 0)
+    walls_ints, edge_ints = _pillow_pixels(walls), _pillow_pixels(edge)
     casters = np.arange(padded.shape[1])
     for b, (polys, is_target) in enumerate(detections):
         row0, row1, col1 = regions[b]
@@ -351,7 +349,7 @@ def render_true_scene(
     padded = pad_polygons(object_polygons, C.MAX_VERTICES) if len(object_polygons) else np.zeros((0, C.MAX_VERTICES, 2))
     walls, edge, _ = _static_pixels(canvas)
     gripper = _gripper_world_polygons(np.asarray(gripper_pose, dtype=float).reshape(1, 3), np.array([float(opening)]))[0]
-    ints = [_pillow_pixels(px, 0) for px in (walls, edge, canvas.to_pixels(padded), canvas.to_pixels(gripper))]
+    ints = [_pillow_pixels(px) for px in (walls, edge, canvas.to_pixels(padded), canvas.to_pixels(gripper))]
     _draw_shelf_and_bodies(ImageDraw.Draw(img), *ints[:3], [len(p) for p in object_polygons], is_target, ints[3])
     return np.asarray(img, dtype=np.uint8)
 
