@@ -18,6 +18,7 @@ SETTING_CHOICES: dict[str, tuple[str, ...]] = {
     "promotion": ("learner", "hybrid"),
     "teacher_inference": ("torch", "onnxruntime"),
     "retrieval_labels": ("planner", "scripted"),
+    "takeover_retriever": ("scripted", "hierarchical"),
 }
 
 
@@ -114,6 +115,11 @@ class TrainConfig:
     scripted retriever acts instead of the planner from the first step whose observation shows the
     target to the episode's end; its actions are then the labels, along its own trajectory
     (occrl.training.dagger.RetrievalTakeover). 0: the planner acts throughout."""
+    takeover_retriever: str = "scripted"
+    """Who takes over with retrieval_takeover > 0: "scripted" (the privileged scripted retriever: a
+    direct reach, grasp and pull) or "hierarchical" (the OMPL hierarchical planner, observations
+    only, which also moves clutter out of the way; one planner per world, its episode starting at
+    the hand-over; as the "hierarchical" teacher: 1 s per OMPL query, closed-loop)."""
     teacher_label_kinds: str = "all"
     """Which of the "hierarchical" teacher's steps are labels: "all", or comma-separated action kinds
     (occrl.baselines.hierarchical.ACTION_KINDS), e.g. "reach,extract": the teacher teaches the

@@ -8,11 +8,13 @@ that, like the learner, sees only detections and searches for a hidden target.
 :class:`OnlineTeacherPolicy` labels while collecting, for a teacher that keeps a memory of the
 episode (the hierarchical planner: accumulated detections, its stage and its current plan), which
 must see every observation of the learner's episode in order. :class:`RetrievalTakeover` lets the
-privileged scripted retriever act in a share of the episodes from the first sight of the target,
-so that its retrieval labels lie on its own, consistent trajectories.
+privileged scripted retriever (or the hierarchical planner) act in a share of the episodes from
+the first sight of the target, so that its retrieval labels lie on its own, consistent trajectories.
 """
 
 from __future__ import annotations
+
+import copy
 
 import torch
 from tensordict import TensorDictBase
@@ -145,11 +147,17 @@ class OnlineTeacherPolicy(ExpertMixPolicy):
 
 
 class RetrievalTakeover(TensorDictModuleBase):
-    """The planner acts; in a share of the episodes the privileged scripted retriever takes over
-    from the first step whose observation shows the target (:func:`target_in_view`) to the end
-    of the episode. Who may take over is drawn per world at each episode start (probability
-    ``share``, from a generator reseeded with :meth:`reseed`); the planner decides only for the
-    worlds it still acts in.
+    """The planner acts; in a share of the episodes a retriever takes over from the first step
+    whose observation shows the target (:func:`target_in_view`) to the end of the episode. Who may
+    take over is drawn per world at each episode start (probability ``share``, from a generator
+    reseeded with :meth:`reseed`); the planner decides only for the worlds it still acts in.
+
+    The retriever is the privileged scripted retriever (called on the taken-over worlds together)
+    or a decision maker with an episode memory, one that reads ``"is_init"`` (the hierarchical
+    planner): it is then copied once per world, each copy sees its world's observations from the
+    hand-over on, the first flagged as an episode start (``"is_init"``), as
+    :class:`occrl.baselines.handover.SearchThenRetrieve` hands over; copy ``b`` is reseeded with
+    ``seed * 1000 + b``.
 
     For ``imitation_teacher="hybrid-acting"`` with ``retrieval_takeover > 0``: the executed action
     is the label, so the retrieval labels are the retriever's own trajectory (an approach kept
@@ -174,30 +182,48 @@ class RetrievalTakeover(TensorDictModuleBase):
         (1, 2)
     """
 
-    def __init__(self, planner: TensorDictModuleBase, retriever: ScriptedRetriever, share: float, seed: int = 0) -> None:
+    def __init__(self, planner: TensorDictModuleBase, retriever: TensorDictModuleBase, share: float, seed: int = 0) -> None:
         super().__init__()
         if not 0.0 <= float(share) <= 1.0:
             raise ValueError(f"share must be in [0, 1], got {share!r}")
         self.planner, self.retriever, self.share = planner, retriever, float(share)
+        self.remembers = "is_init" in retriever.in_keys  # an episode memory: one copy per world
         self.in_keys = list(
             dict.fromkeys(["is_init", *planner.in_keys, *retriever.in_keys, ("objects", "detected"), ("objects", "type_id"), "target_type"])
         )
         self.out_keys = ["action"]
-        self.generator = torch.Generator().manual_seed(int(seed))
+        self.seed = int(seed)
+        self.generator = torch.Generator().manual_seed(self.seed)
         self.frames = self.frames_taken_over = 0
         self._may = self._taken = None  # per world: may the retriever take over / has it
+        self._copies: list[TensorDictModuleBase] = []  # per world, for a retriever with a memory
 
     def reseed(self, seed: int) -> None:
-        self.generator.manual_seed(int(seed))
+        self.seed = int(seed)
+        self.generator.manual_seed(self.seed)
         if hasattr(self.planner, "reseed"):
             self.planner.reseed(seed)
+        self._reseed_copies()
+
+    @property
+    def world_retrievers(self) -> list[TensorDictModuleBase]:
+        """The per-world copies of a retriever with an episode memory (empty before the first
+        take-over, and always for a retriever without one)."""
+        return list(self._copies)
+
+    def _reseed_copies(self) -> None:
+        for b, retriever in enumerate(self._copies):
+            if hasattr(retriever, "reseed"):
+                retriever.reseed(self.seed * 1000 + b)
 
     def sync_weights(self) -> None:
         self.planner.sync_weights()
 
     def reset(self) -> None:
-        """Forget every world's episode, the retriever's plan caches and the counts."""
+        """Forget every world's episode, the retriever's plan caches and memories, and the counts."""
         self.retriever.reset()
+        for retriever in self._copies:
+            retriever.reset()
         self._may = self._taken = None
         self.frames = self.frames_taken_over = 0
 
@@ -209,13 +235,22 @@ class RetrievalTakeover(TensorDictModuleBase):
             self._may, self._taken = torch.zeros(n, dtype=torch.bool), torch.zeros(n, dtype=torch.bool)
         draw = torch.rand(n, generator=self.generator) < self.share
         self._may = torch.where(is_init, draw, self._may)
-        self._taken = (self._taken & ~is_init) | (self._may & target_in_view(flat))
+        was_taken = self._taken & ~is_init
+        self._taken = was_taken | (self._may & target_in_view(flat))
         action = torch.zeros(n, C.ACTION_DIM)
         planned = torch.nonzero(~self._taken).reshape(-1)
         if planned.numel():
             action[planned] = self.planner(flat[planned].select(*self.planner.in_keys).copy()).get("action").reshape(-1, C.ACTION_DIM)
         taken = torch.nonzero(self._taken).reshape(-1)
-        if taken.numel():
+        if taken.numel() and self.remembers:
+            if len(self._copies) != n:
+                self._copies = [copy.deepcopy(self.retriever) for _ in range(n)]
+                self._reseed_copies()
+            for b in taken.tolist():
+                obs = flat[b : b + 1].select(*self.retriever.in_keys).copy()
+                obs.set("is_init", torch.tensor([[not bool(was_taken[b])]]).reshape(obs.get("is_init").shape))
+                action[b] = self._copies[b](obs).get("action").reshape(C.ACTION_DIM)
+        elif taken.numel():
             action[taken] = self.retriever(flat[taken].select(*self.retriever.in_keys).copy()).get("action").reshape(-1, C.ACTION_DIM)
         self.frames += n
         self.frames_taken_over += int(taken.numel())

@@ -135,6 +135,12 @@ class Trainer:
             raise ValueError(f"retrieval_takeover must be a share in [0, 1], got {config.retrieval_takeover!r}")
         if config.retrieval_takeover > 0 and config.imitation_teacher != "hybrid-acting":
             raise ValueError(f"retrieval_takeover applies to imitation_teacher 'hybrid-acting', not {config.imitation_teacher!r}")
+        if config.takeover_retriever not in SETTING_CHOICES["takeover_retriever"]:
+            raise ValueError(
+                f"takeover_retriever must be one of {SETTING_CHOICES['takeover_retriever']}, got {config.takeover_retriever!r}"
+            )
+        if config.takeover_retriever != "scripted" and config.retrieval_takeover == 0:
+            raise ValueError(f"takeover_retriever {config.takeover_retriever!r} needs retrieval_takeover > 0 (the share it takes over)")
         if config.teacher_inference not in INFERENCE_BACKENDS:
             raise ValueError(f"teacher_inference must be one of {INFERENCE_BACKENDS}, got {config.teacher_inference!r}")
         if config.imitation_teacher in ("hybrid", "hybrid-acting") and not config.heatmap:
@@ -186,8 +192,14 @@ class Trainer:
         # the hybrid-acting teacher plans on the live network; planners are reseeded every iteration
         if config.imitation_teacher == "hybrid-acting":
             self.expert = HybridPlanner(self.acting_net, m=4, h=4, seed=self.seed, inference=config.teacher_inference, batch_worlds=True)
-            if config.retrieval_takeover > 0:  # the scripted retriever acts in a share of the retrievals
-                self.expert = RetrievalTakeover(self.expert, ScriptedRetriever(), config.retrieval_takeover, seed=self.seed)
+            if config.retrieval_takeover > 0:  # a retriever acts in a share of the retrievals
+                if config.takeover_retriever == "hierarchical":
+                    from occrl.baselines.hierarchical import HierarchicalPlanner  # needs OMPL
+
+                    taker = HierarchicalPlanner(seed=self.seed, **HIERARCHICAL_TEACHER)
+                else:
+                    taker = ScriptedRetriever()
+                self.expert = RetrievalTakeover(self.expert, taker, config.retrieval_takeover, seed=self.seed)
         elif config.imitation_teacher == "hierarchical":
             from occrl.baselines.hierarchical import HierarchicalPlanner  # needs OMPL
 

@@ -168,3 +168,67 @@ def test_label_kinds_setting_is_checked(tmp_path):
             seed=0,
             progress=False,
         )
+
+
+def test_the_hierarchical_planner_takes_over_with_a_memory_per_world():
+    """RetrievalTakeover with a retriever that remembers the episode: one copy per world, fed that
+    world's observations (observation keys only) from the first sight of the target on, the first
+    flagged as an episode start; the planner acts before."""
+    from occrl.planners import HybridPlanner
+    from occrl.training.dagger import RetrievalTakeover, target_in_view
+
+    torch.manual_seed(0)
+    net = make_occnet("paper").eval()
+    env = make_env(batch_size=4, stage=2, seed=1).append_transform(net.make_primer())
+    mix = RetrievalTakeover(HybridPlanner(net, m=2, h=2), RecordingPlanner(plan_seconds=0.2, follow_tolerance=TOLERANCE), share=1.0, seed=3)
+    assert mix.remembers
+    data = env.rollout(6, mix, break_when_any_done=False)
+    shown, is_init = target_in_view(data), data["is_init"].reshape(data.shape)
+    taken = torch.zeros_like(shown)
+    for t in range(shown.shape[1]):
+        before = taken[:, t - 1] & ~is_init[:, t] if t else torch.zeros_like(shown[:, 0])
+        taken[:, t] = before | shown[:, t]
+    assert taken.any() and not taken.all()  # some worlds search first
+    assert mix.frames_taken_over == int(taken.sum()) and mix.frames == data.numel()
+    assert len(mix.world_retrievers) == 4 and all(c is not mix.retriever for c in mix.world_retrievers)
+    for b, copied in enumerate(mix.world_retrievers):
+        if not taken[b].any():
+            assert copied.episodes == []  # never called
+            continue
+        since = int(taken[b].flip(0).cumprod(0).sum())  # frames taken over at the end of the roll-out
+        assert copied.episodes[0].step == since  # its episode started at the hand-over
+        assert not any("privileged" in str(k) for k in copied.seen_keys)
+    assert [c.seed for c in mix.world_retrievers] == [3000, 3001, 3002, 3003]
+
+
+def test_trainer_with_the_hierarchical_planner_taking_over(tmp_path):
+    cfg = get_train_config(
+        "tiny",
+        imitation_iters=5,
+        imitation_teacher="hybrid-acting",
+        collector="single",
+        retrieval_takeover=1.0,
+        takeover_retriever="hierarchical",
+    )
+    tr = Trainer(cfg, tmp_path, seed=1, progress=False, tensorboard=False)
+    assert isinstance(tr.expert.retriever, HierarchicalPlanner) and tr.expert.remembers
+    tr.train(iterations=1)
+    tr.close()
+    row = json.loads((tmp_path / "metrics.jsonl").read_text().splitlines()[0])
+    assert 0 < row["takeover_share"] <= 1
+    with pytest.raises(ValueError, match="needs retrieval_takeover > 0"):
+        Trainer(
+            get_train_config("tiny", imitation_teacher="hybrid-acting", collector="single", takeover_retriever="hierarchical"),
+            tmp_path / "b",
+            seed=0,
+            progress=False,
+        )
+    with pytest.raises(ValueError, match="takeover_retriever must be one of"):
+        Trainer(
+            get_train_config(
+                "tiny", imitation_teacher="hybrid-acting", collector="single", retrieval_takeover=0.5, takeover_retriever="oracle"
+            ),
+            tmp_path / "c",
+            seed=0,
+            progress=False,
+        )
