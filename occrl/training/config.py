@@ -19,6 +19,7 @@ SETTING_CHOICES: dict[str, tuple[str, ...]] = {
     "teacher_inference": ("torch", "onnxruntime"),
     "retrieval_labels": ("planner", "scripted"),
     "takeover_retriever": ("scripted", "hierarchical"),
+    "takeover_at": ("first-sight", "start"),
 }
 
 
@@ -120,6 +121,10 @@ class TrainConfig:
     direct reach, grasp and pull) or "hierarchical" (the OMPL hierarchical planner, observations
     only, which also moves clutter out of the way; one planner per world, its episode starting at
     the hand-over; as the "hierarchical" teacher: 1 s per OMPL query, closed-loop)."""
+    takeover_at: str = "first-sight"
+    """When the retriever takes over with retrieval_takeover > 0: "first-sight" (the first step whose
+    observation shows the target) or "start" (the episode start: it acts for the whole episode,
+    search included, and the planner acts throughout the other episodes)."""
     teacher_label_kinds: str = "all"
     """Which of the "hierarchical" teacher's steps are labels: "all", or comma-separated action kinds
     (occrl.baselines.hierarchical.ACTION_KINDS), e.g. "reach,extract": the teacher teaches the

@@ -24,6 +24,7 @@ from occrl.baselines.scripted import ScriptedRetriever
 from occrl.envs import world_constants as C
 
 __all__ = [
+    "TAKEOVER_MOMENTS",
     "ExpertMixPolicy",
     "OnlineTeacherPolicy",
     "RetrievalTakeover",
@@ -32,6 +33,10 @@ __all__ = [
     "relabel_retrieval",
     "target_in_view",
 ]
+
+#: When :class:`RetrievalTakeover`'s retriever takes over: at the first sight of the target, or at
+#: the episode start (a whole episode, search included).
+TAKEOVER_MOMENTS = ("first-sight", "start")
 
 
 class ExpertMixPolicy(TensorDictModuleBase):
@@ -159,6 +164,10 @@ class RetrievalTakeover(TensorDictModuleBase):
     :class:`occrl.baselines.handover.SearchThenRetrieve` hands over; copy ``b`` is reseeded with
     ``seed * 1000 + b``.
 
+    ``at="start"``: the retriever takes over at the episode start instead (it acts for the whole
+    episode, search included, in the drawn share; the planner in the others), so that a teacher
+    that searches, such as the hierarchical planner, shows its search on its own trajectory.
+
     For ``imitation_teacher="hybrid-acting"`` with ``retrieval_takeover > 0``: the executed action
     is the label, so the retrieval labels are the retriever's own trajectory (an approach kept
     over steps, backed out of only when it fails), not its answers on states the planner reached
@@ -182,10 +191,15 @@ class RetrievalTakeover(TensorDictModuleBase):
         (1, 2)
     """
 
-    def __init__(self, planner: TensorDictModuleBase, retriever: TensorDictModuleBase, share: float, seed: int = 0) -> None:
+    def __init__(
+        self, planner: TensorDictModuleBase, retriever: TensorDictModuleBase, share: float, seed: int = 0, at: str = "first-sight"
+    ) -> None:
         super().__init__()
         if not 0.0 <= float(share) <= 1.0:
             raise ValueError(f"share must be in [0, 1], got {share!r}")
+        if at not in TAKEOVER_MOMENTS:
+            raise ValueError(f"at must be one of {TAKEOVER_MOMENTS}, got {at!r}")
+        self.at = at
         self.planner, self.retriever, self.share = planner, retriever, float(share)
         self.remembers = "is_init" in retriever.in_keys  # an episode memory: one copy per world
         self.in_keys = list(
@@ -236,7 +250,7 @@ class RetrievalTakeover(TensorDictModuleBase):
         draw = torch.rand(n, generator=self.generator) < self.share
         self._may = torch.where(is_init, draw, self._may)
         was_taken = self._taken & ~is_init
-        self._taken = was_taken | (self._may & target_in_view(flat))
+        self._taken = was_taken | (self._may & (target_in_view(flat) if self.at == "first-sight" else is_init))
         action = torch.zeros(n, C.ACTION_DIM)
         planned = torch.nonzero(~self._taken).reshape(-1)
         if planned.numel():

@@ -139,8 +139,12 @@ class Trainer:
             raise ValueError(
                 f"takeover_retriever must be one of {SETTING_CHOICES['takeover_retriever']}, got {config.takeover_retriever!r}"
             )
-        if config.takeover_retriever != "scripted" and config.retrieval_takeover == 0:
-            raise ValueError(f"takeover_retriever {config.takeover_retriever!r} needs retrieval_takeover > 0 (the share it takes over)")
+        if config.takeover_at not in SETTING_CHOICES["takeover_at"]:
+            raise ValueError(f"takeover_at must be one of {SETTING_CHOICES['takeover_at']}, got {config.takeover_at!r}")
+        if (config.takeover_retriever, config.takeover_at) != ("scripted", "first-sight") and config.retrieval_takeover == 0:
+            raise ValueError(
+                f"takeover_retriever {config.takeover_retriever!r} / takeover_at {config.takeover_at!r} need retrieval_takeover > 0 (the share taken over)"
+            )
         if config.teacher_inference not in INFERENCE_BACKENDS:
             raise ValueError(f"teacher_inference must be one of {INFERENCE_BACKENDS}, got {config.teacher_inference!r}")
         if config.imitation_teacher in ("hybrid", "hybrid-acting") and not config.heatmap:
@@ -199,7 +203,7 @@ class Trainer:
                     taker = HierarchicalPlanner(seed=self.seed, **HIERARCHICAL_TEACHER)
                 else:
                     taker = ScriptedRetriever()
-                self.expert = RetrievalTakeover(self.expert, taker, config.retrieval_takeover, seed=self.seed)
+                self.expert = RetrievalTakeover(self.expert, taker, config.retrieval_takeover, seed=self.seed, at=config.takeover_at)
         elif config.imitation_teacher == "hierarchical":
             from occrl.baselines.hierarchical import HierarchicalPlanner  # needs OMPL
 

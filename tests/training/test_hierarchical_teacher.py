@@ -216,7 +216,7 @@ def test_trainer_with_the_hierarchical_planner_taking_over(tmp_path):
     tr.close()
     row = json.loads((tmp_path / "metrics.jsonl").read_text().splitlines()[0])
     assert 0 < row["takeover_share"] <= 1
-    with pytest.raises(ValueError, match="needs retrieval_takeover > 0"):
+    with pytest.raises(ValueError, match="need retrieval_takeover > 0"):
         Trainer(
             get_train_config("tiny", imitation_teacher="hybrid-acting", collector="single", takeover_retriever="hierarchical"),
             tmp_path / "b",
@@ -229,6 +229,34 @@ def test_trainer_with_the_hierarchical_planner_taking_over(tmp_path):
                 "tiny", imitation_teacher="hybrid-acting", collector="single", retrieval_takeover=0.5, takeover_retriever="oracle"
             ),
             tmp_path / "c",
+            seed=0,
+            progress=False,
+        )
+
+
+def test_a_takeover_at_the_start_hands_whole_episodes_to_the_retriever(tmp_path):
+    """at="start": in the drawn share the retriever acts from the episode's first step (its episode
+    is the world's), the planner throughout the others."""
+    from occrl.planners import HybridPlanner
+    from occrl.training.dagger import RetrievalTakeover
+
+    torch.manual_seed(0)
+    net = make_occnet("paper").eval()
+    env = make_env(batch_size=4, stage=2, seed=1).append_transform(net.make_primer())
+    retriever = HierarchicalPlanner(plan_seconds=0.2, follow_tolerance=TOLERANCE)
+    mix = RetrievalTakeover(HybridPlanner(net, m=2, h=2), retriever, share=0.5, seed=0, at="start")
+    data = env.rollout(4, mix, break_when_any_done=False)
+    assert not data["is_init"][:, 1:].any()  # one episode per world in these 4 steps
+    whole = [b for b, copied in enumerate(mix.world_retrievers) if copied.episodes]
+    assert 0 < len(whole) < 4  # both kinds of world at share 0.5 (seed 0)
+    assert all(mix.world_retrievers[b].episodes[0].step == 4 for b in whole)  # from the first step
+    assert mix.frames_taken_over == 4 * len(whole) and mix.frames == 16
+    with pytest.raises(ValueError, match="at must be one of"):
+        RetrievalTakeover(HybridPlanner(net, m=2, h=2), retriever, share=0.5, at="midway")
+    with pytest.raises(ValueError, match="takeover_at must be one of"):
+        Trainer(
+            get_train_config("tiny", imitation_teacher="hybrid-acting", collector="single", retrieval_takeover=0.5, takeover_at="midway"),
+            tmp_path,
             seed=0,
             progress=False,
         )
