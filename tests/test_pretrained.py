@@ -47,3 +47,18 @@ def test_occnet_ei_is_occnet_trained_further_and_the_cli_takes_its_name(tmp_path
         == 0
     )
     assert json.loads(out.read_text())["network"] == "occnet-ei"
+
+
+def test_occnet_takeover_is_the_takeover_runs_iteration_75_and_its_card_names_the_recipe():
+    from occrl.modules.weights import load_weights
+
+    card = model_card("occnet-takeover")
+    assert card["init_weights"] == "occnet.pt" and card["iterations"] == 75 and card["frames"] == 30_000
+    recipe = card["settings_beyond_preset"]
+    assert recipe["imitation_teacher"] == "hybrid-acting" and recipe["retrieval_takeover"] == 0.5
+    shipped = load_pretrained("occnet-takeover").state_dict()
+    from pathlib import Path
+
+    run_weights = Path(__file__).resolve().parents[1] / "checkpoints" / "retrieval-takeover50-seed0" / "weights_iteration75.pt"
+    run = load_weights(run_weights).state_dict()
+    assert shipped.keys() == run.keys() and all(torch.equal(shipped[k], run[k]) for k in run)

@@ -101,7 +101,9 @@ def make_parser() -> argparse.ArgumentParser:
     )
     e.add_argument("--ray-address", default=None, help="with --backend ray: join this Ray cluster (default: a local runtime)")
     e.add_argument(
-        "--weights", default=None, help="network weights file, or a shipped network's name (occnet-ei), instead of the method's default"
+        "--weights",
+        default=None,
+        help="network weights file, or a shipped network's name (occnet-ei, occnet-takeover), instead of the method's default",
     )
     e.add_argument(
         "--rollout-min-scale",
@@ -128,7 +130,7 @@ def make_parser() -> argparse.ArgumentParser:
 
     x = sub.add_parser("export", help="ship a training run's weights in the package (occrl.load_pretrained)")
     x.add_argument("--run-dir", required=True)
-    x.add_argument("--name", required=True, help="occnet, occnet-noheatmap or occnet-ei")
+    x.add_argument("--name", required=True, help="occnet, occnet-noheatmap, occnet-ei or occnet-takeover")
     x.add_argument("--preset", required=True, help="the training preset the run used")
     x.add_argument("--seed", type=SEED, default=0)
     x.add_argument(

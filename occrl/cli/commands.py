@@ -347,7 +347,15 @@ def run_export(args: argparse.Namespace) -> int:
         f"{last['phase']} phase",
     }
     checkpoint = run / "checkpoint.pt"
-    started_from = load_checkpoint(checkpoint)["state"].get("init_weights") if checkpoint.exists() else None
+    saved = load_checkpoint(checkpoint) if checkpoint.exists() else None
+    started_from = saved["state"].get("init_weights") if saved else None
+    if saved and "train_config" in saved:  # the recipe: the run's settings that differ from its preset's
+        from occrl.training.config import get_train_config
+
+        preset = get_train_config(args.preset).to_dict()
+        changed = {k: v for k, v in saved["train_config"].items() if k in preset and preset[k] != v}
+        card["settings_beyond_preset"] = changed
+        card["summary"] += "".join(f", {k}={v}" for k, v in changed.items() if k not in ("stage", "start_stage"))
     if started_from:  # the run began from another network (--init-weights): its own training comes first
         card["init_weights"] = Path(started_from["path"]).name
         card["summary"] += f", started from {Path(started_from['path']).name}"

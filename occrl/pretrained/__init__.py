@@ -4,8 +4,11 @@
 the Stochastic-gen baseline); ``"occnet-noheatmap"`` the net without heat-map head (Greedy and
 Stochastic baselines); ``"occnet-ei"`` is ``occnet`` after expert iteration on stage 2: its own
 sampled policy is better on every stage, the hybrid planner on it is no better than on ``occnet``
-(``occrl eval --method stochastic-gen --weights occnet-ei``). ``model_card`` says how each was
-trained; docs/experiments.md has the figures.
+(``occrl eval --method stochastic-gen --weights occnet-ei``); ``"occnet-takeover"`` is ``occnet``
+after 75 iterations of the hybrid planner acting with the scripted retriever taking over half of
+the retrievals (``retrieval_takeover=0.5``): the best network so far for the hybrid planner and its
+own policy on stages 2 and 3 (``occrl eval --method hybrid-4x4 --weights occnet-takeover``), not yet
+the default. ``model_card`` says how each was trained; docs/experiments.md has the figures.
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ PRETRAINED_FILES = {  # shipped name -> weights file in PRETRAINED_DIR
     "occnet": "occnet.pt",
     "occnet-noheatmap": "occnet-noheatmap.pt",
     "occnet-ei": "occnet-ei.pt",
+    "occnet-takeover": "occnet-takeover.pt",
 }
 
 
@@ -80,7 +84,7 @@ def pretrained_path(name: str) -> Path:
         >>> pretrained_path("occnet-v9")
         Traceback (most recent call last):
             ...
-        ValueError: unknown pretrained network 'occnet-v9'; known: ['occnet', 'occnet-ei', 'occnet-noheatmap']
+        ValueError: unknown pretrained network 'occnet-v9'; known: ['occnet', 'occnet-ei', 'occnet-noheatmap', 'occnet-takeover']
     """
     if name not in PRETRAINED_FILES:
         raise ValueError(f"unknown pretrained network {name!r}; known: {sorted(PRETRAINED_FILES)}")
