@@ -26,3 +26,13 @@ def test_kept_joints_step_as_new_joints_bit_for_bit(noise, monkeypatch):
     assert kept["next", "privileged", "target_held"].any()  # grasps: the weld joints come and go
     for key in (("next", "privileged", "object_pose"), ("next", "gripper_pose"), ("next", "gripper_opening"), ("next", "reward")):
         assert torch.equal(kept[key], new[key]), key
+
+
+def test_a_layout_probe_that_fails_or_raises_means_the_fallback(caplog):
+    from occrl.envs.pymunk2d.chipmunk_layout import layout_confirmed
+
+    assert layout_confirmed(lambda: True, "unused")
+    with caplog.at_level("INFO", logger="occrl.envs.pymunk2d.chipmunk_layout"):
+        assert not layout_confirmed(lambda: False, "the slow path")
+        assert not layout_confirmed(lambda: {}["missing"], "the slow path")
+    assert caplog.text.count("the slow path") == 2

@@ -29,15 +29,13 @@ Examples:
 
 from __future__ import annotations
 
-import logging
-import struct
 
 import pymunk
 from pymunk._chipmunk_cffi import ffi, lib
 
-__all__ = ["AVAILABLE", "arbiter_head", "has_arbiters"]
+from occrl.envs.pymunk2d.chipmunk_layout import layout_confirmed
 
-logger = logging.getLogger(__name__)
+__all__ = ["AVAILABLE", "arbiter_head", "has_arbiters"]
 
 # struct cpBody: velocity_func, position_func (pointers), m, m_inv, i, i_inv, cog (cpVect),
 # p, v, f (cpVect), a, w, t, transform (6 cpFloat), userData, v_bias (cpVect), w_bias, space,
@@ -69,8 +67,6 @@ def _each_arbiter_count(body: pymunk.Body) -> int:
 
 def _layout_holds() -> bool:
     """Whether the struct offsets above are those of the loaded Chipmunk (see the module doc)."""
-    if ffi.sizeof("void *") != 8 or struct.calcsize("d") != 8:
-        return False
     space = pymunk.Space()
     wall = pymunk.Segment(space.static_body, (-1.0, 0.0), (1.0, 0.0), 0.05)
     body = pymunk.Body(1.0, 1.0)
@@ -96,15 +92,6 @@ def _layout_holds() -> bool:
     return not has_arbiters(head) and _each_arbiter_count(body) == 0
 
 
-def _layout_checked() -> bool:
-    try:
-        return _layout_holds()
-    except Exception:  # noqa: BLE001 - any failure of the probe means: ask each_arbiter instead
-        return False
-
-
 #: Whether the body layout was confirmed on this pymunk build (:func:`arbiter_head` and
 #: :func:`has_arbiters` may be used); False: the worlds ask ``Body.each_arbiter``.
-AVAILABLE: bool = _layout_checked()
-if not AVAILABLE:
-    logger.info("Chipmunk's body layout is not the one expected: worlds ask each_arbiter for contacts (slower, same results)")
+AVAILABLE: bool = layout_confirmed(_layout_holds, "worlds ask each_arbiter for contacts")

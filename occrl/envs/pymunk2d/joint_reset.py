@@ -32,16 +32,14 @@ Examples:
 
 from __future__ import annotations
 
-import logging
 import math
-import struct
 
 import pymunk
 from pymunk._chipmunk_cffi import ffi, lib
 
-__all__ = ["AVAILABLE", "zero_pivot", "zero_gear"]
+from occrl.envs.pymunk2d.chipmunk_layout import layout_confirmed
 
-logger = logging.getLogger(__name__)
+__all__ = ["AVAILABLE", "zero_pivot", "zero_gear"]
 
 # struct cpConstraint: klass, space, a, b, next_a, next_b (6 pointers), then maxForce, errorBias,
 # maxBias, collideBodies (padded), preSolve, postSolve, userData: 104 bytes on 64-bit
@@ -78,8 +76,6 @@ def zero_gear(joint: pymunk.GearJoint) -> None:
 
 def _layout_holds() -> bool:
     """Whether the struct offsets above are those of the loaded Chipmunk (see the module doc)."""
-    if ffi.sizeof("void *") != 8 or struct.calcsize("d") != 8:
-        return False
     space = pymunk.Space()
     body = pymunk.Body(1.0, 2.0)
     body.velocity, body.angular_velocity = (1.0, -0.5), 0.75
@@ -105,15 +101,6 @@ def _layout_holds() -> bool:
     return pivot.impulse == 0.0 and gear.impulse == 0.0
 
 
-def _layout_checked() -> bool:
-    try:
-        return _layout_holds()
-    except Exception:  # noqa: BLE001 - any failure of the probe means: build new joints instead
-        return False
-
-
 #: Whether the struct layout was confirmed on this pymunk build (:func:`zero_pivot` and
 #: :func:`zero_gear` may be used); False: the worlds build new joints at every action.
-AVAILABLE: bool = _layout_checked()
-if not AVAILABLE:
-    logger.info("Chipmunk's joint layout is not the one expected: worlds build new joints at every action (slower, same results)")
+AVAILABLE: bool = layout_confirmed(_layout_holds, "worlds build new joints at every action")
