@@ -112,10 +112,11 @@ class TrainConfig:
     retrieves 72 % of the held-out stage-2 tasks against the planner's 58.5 %; as labels on the
     planner's states it made the planner worse, docs/decisions.md)."""
     retrieval_takeover: float = 0.0
-    """"hybrid-acting": the share of episodes (drawn per world and episode) in which the privileged
-    scripted retriever acts instead of the planner from the first step whose observation shows the
-    target to the episode's end; its actions are then the labels, along its own trajectory
-    (occrl.training.dagger.RetrievalTakeover). 0: the planner acts throughout."""
+    """"hybrid-acting": the share of episodes (drawn per world and episode) in which a retriever
+    (takeover_retriever; the privileged scripted one by default) acts instead of the planner from
+    the first step whose observation shows the target (takeover_at) to the episode's end; its
+    actions are then the labels, along its own trajectory (occrl.training.dagger.RetrievalTakeover).
+    0: the planner acts throughout."""
     takeover_retriever: str = "scripted"
     """Who takes over with retrieval_takeover > 0: "scripted" (the privileged scripted retriever: a
     direct reach, grasp and pull) or "hierarchical" (the OMPL hierarchical planner, observations

@@ -9,7 +9,8 @@ that, like the learner, sees only detections and searches for a hidden target.
 episode (the hierarchical planner: accumulated detections, its stage and its current plan), which
 must see every observation of the learner's episode in order. :class:`RetrievalTakeover` lets the
 privileged scripted retriever (or the hierarchical planner) act in a share of the episodes from
-the first sight of the target, so that its retrieval labels lie on its own, consistent trajectories.
+the first sight of the target (or from the start), so that its labels lie on its own, consistent
+trajectories.
 """
 
 from __future__ import annotations
