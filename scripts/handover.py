@@ -34,19 +34,20 @@ from occrl.eval.methods import make_method
 from occrl.baselines.handover import SearchThenRetrieve
 from occrl.envs.episodes import run_episodes, task_scenes
 from occrl.eval.runner import EVAL_SEED_BASE, summarize
+from occrl.pretrained import weights_file
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--stage", type=int, default=2)
     parser.add_argument("--tasks", type=int, default=200)
-    parser.add_argument("--weights", default=None, help="the planner's network (default: the shipped occnet)")
+    parser.add_argument("--weights", default=None, help="the planner's network: a weights file or a shipped name (default: occnet)")
     parser.add_argument("--to", default="scripted", choices=("scripted", "hierarchical"))
     parser.add_argument("--baseline", default=None, help="an `occrl eval --out` file of hybrid 4x4 on the same tasks")
     parser.add_argument("--out", default=None)
     args = parser.parse_args()
     torch.set_num_threads(1)
-    planner = make_method("hybrid-4x4", args.weights)
+    planner = make_method("hybrid-4x4", weights_file(args.weights))
     retriever = make_method(args.to)
     policy = SearchThenRetrieve(planner.policy, retriever.policy)
     seeds = list(range(EVAL_SEED_BASE, EVAL_SEED_BASE + args.tasks))
