@@ -33,7 +33,6 @@ from occrl.envs.episodes import run_episodes, task_scenes
 from occrl.modules import make_occnet
 from occrl.objectives import compute_advantages
 from occrl.planners import HybridPlanner
-from occrl.planners.rhp import INFERENCE_BACKENDS
 from occrl.modules.weights import load_weights, save_weights
 from occrl.training.checkpoint import load_checkpoint, save_checkpoint
 from occrl.training.collection import TrainingCollector
@@ -65,7 +64,6 @@ __all__ = ["Trainer", "hybrid_validation_success", "VALIDATION_SEED_BASE"]
 logger = logging.getLogger(__name__)
 
 VALIDATION_SEED_BASE = 20_000_000  # hybrid-promotion tasks (held-out evaluation starts at 10_000_000)
-IMITATION_TEACHERS = ("scripted", "hybrid", "hybrid-acting", "hierarchical")
 # the hierarchical teacher: closed-loop (re-plans when the learner leaves its plan: 1 cm / 10 degrees),
 # 1 s per OMPL query, no episode time limit (labels, not a timed evaluation), a Search that starts at
 # the nearer end and ends once the target is seen (on 16 stage-2 tasks it then solved 16, with the
@@ -114,8 +112,9 @@ class Trainer:
         init_weights: str | Path | None = None,
         promotion_check: Callable[..., float] = hybrid_validation_success,
     ) -> None:
-        if config.promotion not in ("learner", "hybrid"):
-            raise ValueError(f"promotion must be 'learner' or 'hybrid', got {config.promotion!r}")
+        for name, allowed in SETTING_CHOICES.items():  # every string setting with a fixed set of values
+            if getattr(config, name) not in allowed:
+                raise ValueError(f"{name} must be one of {allowed}, got {getattr(config, name)!r}")
         if config.promotion_eval_tasks < 1:
             raise ValueError(f"promotion_eval_tasks must be >= 1, got {config.promotion_eval_tasks}")
         if config.replay_stage_workers < 0:
@@ -125,28 +124,16 @@ class Trainer:
                 f"replay_stage_workers={config.replay_stage_workers} needs collector 'multi' or 'ray' and "
                 f"fewer than workers={config.workers} (got collector {config.collector!r})"
             )
-        if config.imitation_teacher not in IMITATION_TEACHERS:
-            raise ValueError(f"imitation_teacher must be one of {IMITATION_TEACHERS}, got {config.imitation_teacher!r}")
-        if config.retrieval_labels not in SETTING_CHOICES["retrieval_labels"]:
-            raise ValueError(f"retrieval_labels must be one of {SETTING_CHOICES['retrieval_labels']}, got {config.retrieval_labels!r}")
         if config.retrieval_labels != "planner" and config.imitation_teacher != "hybrid-acting":
             raise ValueError(f"retrieval_labels applies to imitation_teacher 'hybrid-acting', not {config.imitation_teacher!r}")
         if not 0.0 <= config.retrieval_takeover <= 1.0:
             raise ValueError(f"retrieval_takeover must be a share in [0, 1], got {config.retrieval_takeover!r}")
         if config.retrieval_takeover > 0 and config.imitation_teacher != "hybrid-acting":
             raise ValueError(f"retrieval_takeover applies to imitation_teacher 'hybrid-acting', not {config.imitation_teacher!r}")
-        if config.takeover_retriever not in SETTING_CHOICES["takeover_retriever"]:
-            raise ValueError(
-                f"takeover_retriever must be one of {SETTING_CHOICES['takeover_retriever']}, got {config.takeover_retriever!r}"
-            )
-        if config.takeover_at not in SETTING_CHOICES["takeover_at"]:
-            raise ValueError(f"takeover_at must be one of {SETTING_CHOICES['takeover_at']}, got {config.takeover_at!r}")
         if (config.takeover_retriever, config.takeover_at) != ("scripted", "first-sight") and config.retrieval_takeover == 0:
             raise ValueError(
                 f"takeover_retriever {config.takeover_retriever!r} / takeover_at {config.takeover_at!r} need retrieval_takeover > 0 (the share taken over)"
             )
-        if config.teacher_inference not in INFERENCE_BACKENDS:
-            raise ValueError(f"teacher_inference must be one of {INFERENCE_BACKENDS}, got {config.teacher_inference!r}")
         if config.imitation_teacher in ("hybrid", "hybrid-acting") and not config.heatmap:
             raise ValueError(f"imitation_teacher={config.imitation_teacher!r} needs the heat-map head (the hybrid planner uses it)")
         if config.imitation_teacher in ("hybrid-acting", "hierarchical") and config.collector != "single":
