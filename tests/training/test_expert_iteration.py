@@ -10,6 +10,7 @@ from occrl.modules import make_occnet
 from occrl.planners import HybridPlanner
 from occrl.training import Trainer, get_train_config
 from occrl.training.dagger import label_with_planner
+from tests.helpers import frames_taken_over
 
 
 def test_planner_labels_are_its_decisions_without_privileged_state():
@@ -123,10 +124,7 @@ def test_retrieval_takeover_lets_the_scripted_retriever_act_from_the_first_sight
     data = tr._collect()
     shown = target_in_view(data)
     is_init = data["is_init"].reshape(shown.shape)
-    taken = torch.zeros_like(shown)
-    for t in range(shown.shape[1]):  # from the first sight of the target to the episode's end
-        before = taken[:, t - 1] & ~is_init[:, t] if t else torch.zeros_like(shown[:, 0])
-        taken[:, t] = before | shown[:, t]
+    taken = frames_taken_over(shown, is_init)
     assert taken.any() and not taken.all()
     assert tr.expert.frames_taken_over == int(taken.sum()) and tr.expert.frames == data.numel()
     scripted = label_with_expert(data.clone(), ScriptedRetriever())["expert_action"]

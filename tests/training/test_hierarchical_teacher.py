@@ -15,7 +15,7 @@ from occrl.envs import world_constants as C
 from occrl.modules import make_occnet
 from occrl.training import Trainer, get_train_config
 from occrl.training.dagger import OnlineTeacherPolicy
-from tests.helpers import scene
+from tests.helpers import frames_taken_over, scene
 
 TOLERANCE = (0.01, math.radians(10.0))
 
@@ -184,10 +184,7 @@ def test_the_hierarchical_planner_takes_over_with_a_memory_per_world():
     assert mix.remembers
     data = env.rollout(6, mix, break_when_any_done=False)
     shown, is_init = target_in_view(data), data["is_init"].reshape(data.shape)
-    taken = torch.zeros_like(shown)
-    for t in range(shown.shape[1]):
-        before = taken[:, t - 1] & ~is_init[:, t] if t else torch.zeros_like(shown[:, 0])
-        taken[:, t] = before | shown[:, t]
+    taken = frames_taken_over(shown, is_init)
     assert taken.any() and not taken.all()  # some worlds search first
     assert mix.frames_taken_over == int(taken.sum()) and mix.frames == data.numel()
     assert len(mix.world_retrievers) == 4 and all(c is not mix.retriever for c in mix.world_retrievers)

@@ -29,7 +29,6 @@ Examples:
 
 from __future__ import annotations
 
-
 import pymunk
 from pymunk._chipmunk_cffi import ffi, lib
 
