@@ -31,10 +31,10 @@ from occrl.envs.geometry import convex_hull, polygons_overlap, transform_points,
 from occrl.envs.shelf_geometry import SHELF_WALLS, gripper_polygons
 from occrl.envs.pymunk2d.world import grasp_candidate
 
-__all__ = ["ScriptedRetriever"]
+__all__ = ["ScriptedRetriever", "plan_grasp", "way_out", "move_action"]
 
 _APPROACH_ANGLES = np.radians(np.arange(-45.0, 45.1, 5.0))
-_FIT_WIDTH = C.GRIPPER_STROKE - 0.012
+FIT_WIDTH = C.GRIPPER_STROKE - 0.012  # the widest object the open fingers take with room to spare
 _OFFSETS = np.arange(0.001, 0.0361, 0.001)
 _LATERAL_OFFSETS = np.concatenate([[0.0], np.stack([_OFFSETS, -_OFFSETS], 1).ravel()])
 _OPEN_GRIPPER = gripper_polygons(C.GRIPPER_STROKE)
@@ -49,6 +49,13 @@ def _rot(v: np.ndarray, th: float) -> np.ndarray:
 
 def _wrap(a: float) -> float:
     return (a + math.pi) % (2 * math.pi) - math.pi
+
+
+def move_action(heading: float, d_world: np.ndarray, dth: float, grip: float) -> np.ndarray:
+    """The action (clipped to [-1, 1]) that moves a gripper at ``heading`` by ``d_world`` (shelf
+    frame, m), turns it by ``dth`` (rad) and sets the gripper command ``grip``."""
+    lat, fwd = _rot(d_world, -heading)
+    return np.clip(np.array([fwd / C.MAX_FORWARD, lat / C.MAX_LATERAL, dth / C.MAX_ROTATION, grip]), -1.0, 1.0)
 
 
 class ScriptedRetriever(TensorDictModuleBase):
@@ -105,6 +112,18 @@ class ScriptedRetriever(TensorDictModuleBase):
         return tensordict
 
     # ------------------------------------------------------------------ one world
+    def grasp_plan(self, target: np.ndarray, clutter: list, heading: float, key: bytes | None = None) -> tuple[float, np.ndarray]:
+        """:func:`plan_grasp` for ``target``, cached under ``key`` (the target's quantised pose)."""
+        plan = self._plans.get(key) if key is not None else None
+        if plan is None:
+            plan = plan_grasp(target, clutter, prefer_angle=heading)
+            if key is not None:
+                if len(self._plans) > 4096:
+                    self._plans.clear()
+                    self._tried.clear()
+                self._plans[key] = plan
+        return plan
+
     def act(self, gripper_pose, closed: bool, held: bool, target: np.ndarray, clutter: list, key: bytes | None = None) -> np.ndarray:
         """The action for one world from the true target and clutter polygons (shelf frame)."""
         x, y, th = gripper_pose
@@ -112,15 +131,7 @@ class ScriptedRetriever(TensorDictModuleBase):
             return np.array([-1.0, 0.0, 0.0, 1.0])
         if closed:  # a missed grasp: open first
             return np.array([0.0, 0.0, 0.0, -1.0])
-        plan = self._plans.get(key) if key is not None else None
-        if plan is None:
-            plan = plan_grasp(target, clutter, prefer_angle=th)
-            if key is not None:
-                if len(self._plans) > 4096:
-                    self._plans.clear()
-                    self._tried.clear()
-                self._plans[key] = plan
-        approach, grasp = plan
+        approach, grasp = self.grasp_plan(target, clutter, th, key)
         if grasp_candidate(gripper_pose, C.GRIPPER_STROKE, [target, *clutter])[0] == 0:
             return np.array([0.0, 0.0, 0.0, 1.0])  # the target alone is between the fingers: close
         e = _rot(np.array([x, y]) - grasp, -approach)  # gripper in the grasp frame: e[0] lateral, e[1] along
@@ -144,14 +155,9 @@ class ScriptedRetriever(TensorDictModuleBase):
             step_g = np.array([-e[0], 0.0])  # a small sideways correction
         else:
             # line up outside the shelf, at the entry of the approach corridor
-            entry = -_way_out(grasp, approach)
+            entry = -way_out(grasp, approach)
             step_g = np.array([-e[0], entry - e[1]])
-        return self._move(th, _rot(step_g, approach), dth, grip=-1.0)
-
-    @staticmethod
-    def _move(th: float, d_world: np.ndarray, dth: float, grip: float) -> np.ndarray:
-        lat, fwd = _rot(d_world, -th)
-        return np.clip(np.array([fwd / C.MAX_FORWARD, lat / C.MAX_LATERAL, dth / C.MAX_ROTATION, grip]), -1.0, 1.0)
+        return move_action(th, _rot(step_g, approach), dth, grip=-1.0)
 
 
 def plan_grasp(
@@ -176,7 +182,7 @@ def plan_grasp(
             continue
         local = transform_points(target - centre, (0.0, 0.0, -a))
         xmin, xmax = local[:, 0].min(), local[:, 0].max()
-        if xmax - xmin > _FIT_WIDTH:
+        if xmax - xmin > FIT_WIDTH:
             continue
         grasp_y = min(max(-local[:, 1].min() + 0.004, 0.012), C.FINGER_LENGTH - 0.006)
         cs = 0.5 * (xmin + xmax) + _LATERAL_OFFSETS
@@ -188,7 +194,7 @@ def plan_grasp(
         )
         # finger corridor in the approach frame (centred on the target): x in [c - h, c + h],
         # y from where the fingertips leave the shelf to the fingertips at the grasp pose
-        out = np.array([_way_out(g, a) for g in grasps])
+        out = np.array([way_out(g, a) for g in grasps])
         y_lo, y_hi = -grasp_y - out, -grasp_y + C.FINGER_LENGTH
         band_free = np.ones(len(cs), bool)  # nothing between the fingers on the way in
         lanes_free = np.ones(len(cs), bool)  # nothing in front of the fingers either
@@ -218,7 +224,7 @@ def plan_grasp(
     return 0.0, centre + np.array([0.0, -0.02])  # nothing fits: aim at it straight on
 
 
-def _way_out(grasp: np.ndarray, angle: float) -> float:
+def way_out(grasp: np.ndarray, angle: float) -> float:
     """Distance back along the approach axis until the fingertips are out of the shelf."""
     back_y = -math.cos(angle)
     return max((grasp[1] + C.FINGER_LENGTH - _OUTSIDE_Y) / max(-back_y, 1e-3), 0.0)
@@ -229,17 +235,9 @@ def _path_clear(grasp: np.ndarray, angle: float) -> bool:
     out of the shelf along the approach axis. A part translated along a line sweeps the convex
     hull of its start and end outlines, so one separating-axis test per part and wall suffices."""
     back = _rot(np.array([0.0, -1.0]), angle)
-    far = grasp + _way_out(grasp, angle) * back
+    far = grasp + way_out(grasp, angle) * back
     for part in _OPEN_GRIPPER:
         swept = convex_hull(np.concatenate([transform_points(part, (*grasp, angle)), transform_points(part, (*far, angle))]))
         if any(polygons_overlap(swept, w, clearance=0.001) for w in SHELF_WALLS):
             return False
     return True
-
-
-def _corridor(grasp: np.ndarray, angle: float) -> np.ndarray:
-    """What the space between the open fingers sweeps from outside the shelf to the grasp pose."""
-    h = C.GRIPPER_STROKE / 2
-    d = _way_out(grasp, angle)
-    box = np.array([[-h, -d], [h, -d], [h, C.FINGER_LENGTH], [-h, C.FINGER_LENGTH]])
-    return transform_points(box, (grasp[0], grasp[1], angle))

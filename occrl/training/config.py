@@ -18,7 +18,7 @@ SETTING_CHOICES: dict[str, tuple[str, ...]] = {
     "promotion": ("learner", "hybrid"),
     "teacher_inference": ("torch", "onnxruntime"),
     "retrieval_labels": ("planner", "scripted"),
-    "takeover_retriever": ("scripted", "hierarchical"),
+    "takeover_retriever": ("scripted", "clearing", "hierarchical"),
     "takeover_at": ("first-sight", "start"),
 }
 
@@ -119,7 +119,9 @@ class TrainConfig:
     0: the planner acts throughout."""
     takeover_retriever: str = "scripted"
     """Who takes over with retrieval_takeover > 0: "scripted" (the privileged scripted retriever: a
-    direct reach, grasp and pull) or "hierarchical" (the OMPL hierarchical planner, observations
+    direct reach, grasp and pull), "clearing" (the privileged clearing retriever: it first carries
+    the objects in the target's corridor aside, then reaches, grasps and pulls; both step by step
+    predictable) or "hierarchical" (the OMPL hierarchical planner, observations
     only, which also moves clutter out of the way; one planner per world, its episode starting at
     the hand-over; as the "hierarchical" teacher: 1 s per OMPL query, closed-loop)."""
     takeover_at: str = "first-sight"

@@ -28,6 +28,7 @@ import numpy as np
 import torch
 from tensordict import TensorDictBase
 
+from occrl.baselines.clearing import ClearingRetriever
 from occrl.baselines.scripted import ScriptedRetriever
 from occrl.envs.episodes import run_episodes, task_scenes
 from occrl.modules import make_occnet
@@ -188,6 +189,8 @@ class Trainer:
                     from occrl.baselines.hierarchical import HierarchicalPlanner  # needs OMPL
 
                     taker = HierarchicalPlanner(seed=self.seed, **HIERARCHICAL_TEACHER)
+                elif config.takeover_retriever == "clearing":
+                    taker = ClearingRetriever()
                 else:
                     taker = ScriptedRetriever()
                 self.expert = RetrievalTakeover(self.expert, taker, config.retrieval_takeover, seed=self.seed, at=config.takeover_at)

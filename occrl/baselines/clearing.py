@@ -1,0 +1,195 @@
+"""A privileged scripted retriever that clears the way first: it moves the objects in the corridor
+to the target aside, one by one, then retrieves the target as :class:`ScriptedRetriever` does.
+
+It is not a method of the paper. It is a teacher for imitation: every step is a straight,
+predictable motion (as the scripted retriever's), and it rearranges clutter as the hierarchical
+planner does (paper Alg. 3), but from the true state. It reads ``"privileged"`` entries, so it
+must never be used where only perception is allowed.
+
+Strategy, re-planned every step from the true state (closed loop):
+
+1. Plan the target's grasp (:func:`~occrl.baselines.scripted.plan_grasp`, cached while the target
+   does not move) and find the *blockers*: objects whose bounding box, in the approach frame,
+   reaches into the corridor the fingers sweep on the way in (``clear="lanes"``: fingers
+   included; ``clear="band"``: only the space between them) and that the fingers can take.
+2. No blocker: retrieve the target (the scripted retriever's steps).
+3. Otherwise take the front-most blocker (reach and close as for the target), then carry it to
+   a *spot*: back along the arm (the way in) to a depth ``y``, then sideways to an ``x``, so that
+   it lies clear of the target's corridor. Spots are searched from the shortest carry up; a spot
+   counts when the swept outlines of the object and the closed gripper touch nothing on both
+   legs, the open gripper fits there and backs out freely. The gripper opens at the spot and
+   backs out. A blocker without a spot is left to be pushed (as the scripted retriever does).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from occrl.envs import world_constants as C
+from occrl.envs.geometry import convex_hull, min_width, polygons_overlap, transform_points
+from occrl.envs.shelf_geometry import SHELF_WALLS, gripper_polygons
+
+from occrl.baselines.scripted import FIT_WIDTH, ScriptedRetriever, move_action, way_out
+
+__all__ = ["ClearingRetriever", "CLEARING_MODES"]
+
+CLEARING_MODES = ("lanes", "band")
+_LANE_MARGIN = 0.005  # a placed object keeps this far (m) from the target's corridor
+_CLEARANCE = 0.003  # swept outlines keep this far (m) from other objects and the walls
+_MIN_CARRY_Y = 0.035  # a carried object's centroid stays this deep in the shelf (front edge: y = 0)
+_AT_SPOT = 0.006  # the carried object is at its spot within this distance (m)
+_SIDE_STEPS = np.arange(0.01, 0.301, 0.005)
+_DEPTH_STEP = 0.02
+
+
+class ClearingRetriever(ScriptedRetriever):
+    """Privileged scripted policy that moves blockers out of the target's corridor before the
+    reach, writing ``"action"`` (see the module docstring).
+
+    Args:
+        lateral_tolerance: how well (m) the gripper must be lined up before it advances onto an object.
+        clear: which objects count as blockers: ``"lanes"`` (anything the fingers would touch on
+            the way in) or ``"band"`` (only what would end up between the fingers).
+
+    Examples:
+        >>> from occrl.envs import make_env
+        >>> from occrl.baselines.clearing import ClearingRetriever
+        >>> env = make_env(batch_size=1, stage=1, seed=3, heatmap_target=False)
+        >>> td = env.rollout(50, policy=ClearingRetriever())
+        >>> bool(td["next", "success"].any())
+        True
+    """
+
+    def __init__(self, lateral_tolerance: float = 0.006, clear: str = "lanes") -> None:
+        if clear not in CLEARING_MODES:
+            raise ValueError(f"clear must be one of {CLEARING_MODES}, got {clear!r}")
+        super().__init__(lateral_tolerance)
+        self.clear = clear
+        self._spots: dict[tuple[bytes, int], tuple[np.ndarray, np.ndarray] | None] = {}  # carry legs by (target key, blocker)
+
+    def reset(self) -> None:
+        super().reset()
+        self._spots.clear()
+
+    def act(self, gripper_pose, closed: bool, held: bool, target: np.ndarray, clutter: list, key: bytes | None = None) -> np.ndarray:
+        """The action for one world from the true target and clutter polygons (shelf frame)."""
+        if held or key is None:
+            return super().act(gripper_pose, closed, held, target, clutter, key)
+        approach, grasp = self.grasp_plan(target, clutter, float(gripper_pose[2]), key)
+        if closed:
+            k = _object_between_fingers(gripper_pose, clutter)
+            if k is None:  # a missed grasp, or the target (then ``held`` says so)
+                return super().act(gripper_pose, closed, held, target, clutter, key)
+            legs = self._carry_legs(key, k, gripper_pose, target, clutter, approach, grasp)
+            if legs is None:  # nowhere to put it: let go and push through
+                return np.array([0.0, 0.0, 0.0, -1.0])
+            return _carry(gripper_pose, clutter[k], legs)
+        lanes = _corridor_lanes(grasp, approach, self.clear)
+        blockers = [k for k, poly in enumerate(clutter) if _in_lanes(poly, lanes) and min_width(poly) <= FIT_WIDTH]
+        blockers = [k for k in blockers if self._spots.get((key, k), True) is not None]  # skip those without a spot
+        if not blockers:
+            return super().act(gripper_pose, closed, held, target, clutter, key)
+        k = min(blockers, key=lambda j: _lane_coords(clutter[j], lanes)[2])  # the front-most
+        others = [target, *(p for j, p in enumerate(clutter) if j != k)]
+        return super().act(gripper_pose, closed, False, clutter[k], others, b"blocker" + key + bytes([k]))
+
+    def _carry_legs(self, key, k, gripper_pose, target, clutter, approach, grasp):
+        if (key, k) not in self._spots:
+            others = [target, *(p for j, p in enumerate(clutter) if j != k)]
+            self._spots[(key, k)] = find_spot(gripper_pose, clutter[k], others, _corridor_lanes(grasp, approach, self.clear))
+        return self._spots[(key, k)]
+
+
+def _corridor_lanes(grasp: np.ndarray, approach: float, clear: str) -> tuple:
+    """The corridor as (grasp, approach, half width, near end, far end) in the approach frame."""
+    half = C.GRIPPER_STROKE / 2 + (C.FINGER_WIDTH if clear == "lanes" else 0.0)
+    return grasp, approach, half, -way_out(grasp, approach), C.FINGER_LENGTH
+
+
+def _lane_coords(poly: np.ndarray, lanes: tuple) -> tuple[float, float, float, float]:
+    """Bounding box (u0, u1, v0, v1) of a polygon in the approach frame (u across, v along)."""
+    grasp, approach, *_ = lanes
+    p = transform_points(poly - grasp, (0.0, 0.0, -approach))
+    return p[:, 0].min(), p[:, 0].max(), p[:, 1].min(), p[:, 1].max()
+
+
+def _in_lanes(poly: np.ndarray, lanes: tuple, margin: float = 0.0) -> bool:
+    _, _, half, near, far = lanes
+    u0, u1, v0, v1 = _lane_coords(poly, lanes)
+    return u1 > -half - margin and u0 < half + margin and v1 > near and v0 < far
+
+
+def _object_between_fingers(gripper_pose, clutter: list) -> int | None:
+    """The clutter object whose centroid lies between the fingers (the one the closed gripper holds)."""
+    best, best_d = None, math.inf
+    for k, poly in enumerate(clutter):
+        c = transform_points(poly.mean(axis=0)[None] - gripper_pose[:2], (0.0, 0.0, -gripper_pose[2]))[0]
+        if abs(c[0]) < C.GRIPPER_STROKE / 2 and 0.0 <= c[1] <= C.FINGER_LENGTH + 0.01:
+            d = abs(c[0]) + abs(c[1] - C.FINGER_LENGTH / 2)
+            if d < best_d:
+                best, best_d = k, d
+    return best
+
+
+def _swept(polys: list[np.ndarray], shift: np.ndarray) -> list[np.ndarray]:
+    """What each convex polygon sweeps when translated by ``shift``."""
+    return [convex_hull(np.concatenate([p, p + shift])) for p in polys]
+
+
+def _touches(polys: list[np.ndarray], obstacles: list[np.ndarray], clearance: float = _CLEARANCE) -> bool:
+    return any(polygons_overlap(p, o, clearance) for p in polys for o in obstacles)
+
+
+def find_spot(gripper_pose, blocker: np.ndarray, others: list[np.ndarray], lanes: tuple) -> tuple[np.ndarray, np.ndarray] | None:
+    """Where to carry a held blocker: the two carry legs' ends (blocker centroid after backing
+    along the arm, then after the sideways move), or None when no spot is found. Spots clear of
+    the corridor are tried from the shortest carry up (see the module docstring)."""
+    x, y, th = (float(v) for v in gripper_pose)
+    centre = blocker.mean(axis=0)
+    offset = np.array([x, y]) - centre  # the gripper relative to the carried object
+    local = transform_points(blocker - [x, y], (0.0, 0.0, -th))
+    closed_opening = float(local[:, 0].max() - local[:, 0].min())
+    palm, left, right, _ = gripper_polygons(closed_opening)
+    open_parts = gripper_polygons(C.GRIPPER_STROKE)[:3]
+    walls = list(SHELF_WALLS)
+    back = np.array([math.sin(th), -math.cos(th)])  # the arm's way back
+    candidates = []
+    for depth in np.arange(centre[1], _MIN_CARRY_Y - 1e-9, -_DEPTH_STEP):
+        start = centre + back * (centre[1] - depth) / max(math.cos(th), 0.3)
+        for side in np.concatenate([_SIDE_STEPS, -_SIDE_STEPS]):
+            end = start + [side, 0.0]
+            moved = blocker + (end - centre)
+            if not _in_lanes(moved, lanes, _LANE_MARGIN):
+                candidates.append((float(np.linalg.norm(start - centre) + abs(side)), start, end))
+                candidates.append((float(np.linalg.norm(end - centre)), centre, end))  # straight there
+    candidates.sort(key=lambda c: c[0])
+    held_parts = [transform_points(p, (x, y, th)) for p in (palm, left, right)]
+    for _, start, end in candidates:
+        shift1, shift2 = start - centre, end - start
+        leg1 = _swept([blocker, *held_parts], shift1)
+        if _touches(leg1, others, 0.001):
+            continue
+        leg2 = _swept([blocker + shift1, *(p + shift1 for p in held_parts)], shift2)
+        if _touches(leg2, others) or _touches(leg2, walls):
+            continue
+        release = (*(end + offset), th)
+        opened = [transform_points(p, release) for p in open_parts]
+        if _touches(opened, others + walls, 0.001):
+            continue
+        out = way_out(np.array(release[:2]), th)
+        if _touches(_swept(opened, back * out), others, 0.001):
+            continue
+        return start, end
+    return None
+
+
+def _carry(gripper_pose, blocker: np.ndarray, legs: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """One step of the carry: back along the arm to the first leg's end, then sideways, then open."""
+    start, end = legs
+    centre = blocker.mean(axis=0)
+    if np.linalg.norm(end - centre) < _AT_SPOT:
+        return np.array([0.0, 0.0, 0.0, -1.0])
+    goal = end if centre[1] <= start[1] + 0.004 else start
+    return move_action(float(gripper_pose[2]), goal - centre, 0.0, grip=1.0)
