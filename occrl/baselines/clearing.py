@@ -35,7 +35,7 @@ from occrl.baselines.scripted import FIT_WIDTH, ScriptedRetriever, move_action, 
 
 __all__ = ["ClearingRetriever", "CLEARING_MODES"]
 
-CLEARING_MODES = ("lanes", "band")
+CLEARING_MODES = ("band", "lanes")
 _LANE_MARGIN = 0.005  # a placed object keeps this far (m) from the target's corridor
 _CLEARANCE = 0.003  # swept outlines keep this far (m) from other objects and the walls
 _MIN_CARRY_Y = 0.035  # a carried object's centroid stays this deep in the shelf (front edge: y = 0)
@@ -62,7 +62,7 @@ class ClearingRetriever(ScriptedRetriever):
         True
     """
 
-    def __init__(self, lateral_tolerance: float = 0.006, clear: str = "lanes") -> None:
+    def __init__(self, lateral_tolerance: float = 0.006, clear: str = "band") -> None:
         if clear not in CLEARING_MODES:
             raise ValueError(f"clear must be one of {CLEARING_MODES}, got {clear!r}")
         super().__init__(lateral_tolerance)
