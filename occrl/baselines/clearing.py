@@ -31,12 +31,12 @@ from occrl.envs import world_constants as C
 from occrl.envs.geometry import convex_hull, min_width, polygons_overlap, transform_points
 from occrl.envs.shelf_geometry import SHELF_WALLS, gripper_polygons
 
-from occrl.baselines.scripted import FIT_WIDTH, ScriptedRetriever, move_action, way_out
+from occrl.baselines.scripted import FIT_WIDTH, ScriptedRetriever, grasp_candidates, move_action, path_clear, plan_grasp, way_out
 
 __all__ = ["ClearingRetriever", "CLEARING_MODES"]
 
 CLEARING_MODES = ("band", "lanes")
-_LANE_MARGIN = 0.005  # a placed object keeps this far (m) from the target's corridor
+_LANE_MARGIN = 0.005  # a placed object keeps this far (m) from the fingers' way to the target
 _CLEARANCE = 0.003  # swept outlines keep this far (m) from other objects and the walls
 _MIN_CARRY_Y = 0.035  # a carried object's centroid stays this deep in the shelf (front edge: y = 0)
 _AT_SPOT = 0.006  # the carried object is at its spot within this distance (m)
@@ -95,11 +95,44 @@ class ClearingRetriever(ScriptedRetriever):
         others = [target, *(p for j, p in enumerate(clutter) if j != k)]
         return super().act(gripper_pose, closed, False, clutter[k], others, b"blocker" + key + bytes([k]))
 
+    def grasp_plan(self, target: np.ndarray, clutter: list, heading: float, key: bytes | None = None) -> tuple[float, np.ndarray]:
+        """:func:`clearing_plan` for ``target``, cached under ``key`` (the target's quantised pose)."""
+        plan = self._plans.get(key) if key is not None else None
+        if plan is None:
+            plan = clearing_plan(target, clutter, heading, self.clear)
+            if key is not None:
+                if len(self._plans) > 4096:
+                    self.reset()
+                self._plans[key] = plan
+        return plan
+
     def _carry_legs(self, key, k, gripper_pose, target, clutter, approach, grasp):
         if (key, k) not in self._spots:
             others = [target, *(p for j, p in enumerate(clutter) if j != k)]
             self._spots[(key, k)] = find_spot(gripper_pose, clutter[k], others, _corridor_lanes(grasp, approach, self.clear))
         return self._spots[(key, k)]
+
+
+def clearing_plan(target: np.ndarray, clutter: list[np.ndarray], heading: float = 0.0, clear: str = "band") -> tuple[float, np.ndarray]:
+    """The target's approach angle and grasp position with the fewest objects to carry aside:
+    among the wall-free ways in (:func:`~occrl.baselines.scripted.grasp_candidates`, from
+    ``heading`` outwards), the fewest blockers the fingers cannot take, then the fewest blockers,
+    then the fewest objects in front of the fingers. Nothing fits: :func:`plan_grasp`'s choice."""
+    graspable = np.array([min_width(p) <= FIT_WIDTH for p in clutter], bool)
+    best = None
+    for a, grasps, band, lanes in grasp_candidates(target, clutter, heading):
+        blocked = lanes if clear == "lanes" else band
+        costs = np.stack([blocked[~graspable].sum(0), blocked.sum(0), lanes.sum(0)], 1)
+        for k in np.lexsort(costs.T[::-1]):  # cheapest first, centred first among equals
+            cost = tuple(int(c) for c in costs[k])
+            if best is not None and cost >= best[0]:
+                break
+            if path_clear(grasps[k], a):
+                best = (cost, a, grasps[k])
+                break
+        if best is not None and best[0] == (0, 0, 0):
+            break
+    return (best[1], best[2]) if best is not None else plan_grasp(target, clutter, heading)
 
 
 def _corridor_lanes(grasp: np.ndarray, approach: float, clear: str) -> tuple:

@@ -31,7 +31,7 @@ from occrl.envs.geometry import convex_hull, polygons_overlap, transform_points,
 from occrl.envs.shelf_geometry import SHELF_WALLS, gripper_polygons
 from occrl.envs.pymunk2d.world import grasp_candidate
 
-__all__ = ["ScriptedRetriever", "plan_grasp", "way_out", "move_action"]
+__all__ = ["ScriptedRetriever", "plan_grasp", "grasp_candidates", "way_out", "path_clear", "move_action"]
 
 _APPROACH_ANGLES = np.radians(np.arange(-45.0, 45.1, 5.0))
 FIT_WIDTH = C.GRIPPER_STROKE - 0.012  # the widest object the open fingers take with room to spare
@@ -160,22 +160,20 @@ class ScriptedRetriever(TensorDictModuleBase):
         return move_action(th, _rot(step_g, approach), dth, grip=-1.0)
 
 
-def plan_grasp(
-    target: np.ndarray, clutter: list[np.ndarray] = (), prefer_angle: float = 0.0, exclude: list[float] = ()
-) -> tuple[float, np.ndarray]:
-    """Approach angle and grasp position (gripper origin) for a target polygon (shelf frame).
+def grasp_candidates(target: np.ndarray, clutter: list[np.ndarray] = (), prefer_angle: float = 0.0, exclude: list[float] = ()):
+    """The grasps that fit a target polygon (shelf frame), one approach angle at a time.
 
-    Candidates (angle, lateral offset) are tried from ``prefer_angle`` (the gripper's current
-    heading, so a re-plan does not swing the arm) and centred outwards, skipping angles within 10
-    degrees of the ``exclude``d ones (approaches that already failed). Preference: a wall-free way
-    in with no clutter in the way of the fingers; then one with no clutter between the fingers
-    (clutter ahead of a finger gets pushed aside); then any wall-free way in; then anything that
-    fits. Clutter tests use each object's bounding box in the approach frame (conservative).
+    Angles are tried from ``prefer_angle`` outwards, skipping those within 10 degrees of the
+    ``exclude``d ones; each yields ``(angle, grasps, band, lanes)``: the gripper positions (n, 2)
+    whose open fingers take the target (centred first), and per clutter object and grasp
+    (len(clutter), n) whether it reaches between the fingers (``band``) or in front of the
+    fingers or between them (``lanes``) on the straight way in, from outside the shelf to the
+    fingertips at the grasp. Clutter tests use each object's bounding box in the approach frame
+    (conservative).
     """
     centre = target.mean(axis=0)
     h = C.GRIPPER_STROKE / 2
     slack = h - 0.002
-    fits = wall_free = band_only = None
     for a in _APPROACH_ANGLES[np.argsort(np.abs(_APPROACH_ANGLES - prefer_angle), kind="stable")]:
         a = float(a)
         if any(abs(a - b) < math.radians(10) for b in exclude):
@@ -189,6 +187,7 @@ def plan_grasp(
         ok = (xmin - cs > -slack) & (xmax - cs < slack) & (xmin - cs < -0.003) & (xmax - cs > 0.003)
         if not ok.any():
             continue
+        cs = cs[ok]
         grasps = centre + np.stack([cs, np.full_like(cs, -grasp_y)], 1) @ np.array(
             [[math.cos(a), math.sin(a)], [-math.sin(a), math.cos(a)]]
         )
@@ -196,19 +195,36 @@ def plan_grasp(
         # y from where the fingertips leave the shelf to the fingertips at the grasp pose
         out = np.array([way_out(g, a) for g in grasps])
         y_lo, y_hi = -grasp_y - out, -grasp_y + C.FINGER_LENGTH
-        band_free = np.ones(len(cs), bool)  # nothing between the fingers on the way in
-        lanes_free = np.ones(len(cs), bool)  # nothing in front of the fingers either
+        band = np.zeros((len(clutter), len(cs)), bool)
+        lanes = np.zeros((len(clutter), len(cs)), bool)
         hw = h + C.FINGER_WIDTH
-        for poly in clutter:
+        for i, poly in enumerate(clutter):
             p = transform_points(poly - centre, (0.0, 0.0, -a))
             px0, px1, py0, py1 = p[:, 0].min(), p[:, 0].max(), p[:, 1].min(), p[:, 1].max()
             along = (py1 > y_lo) & (py0 < y_hi)
-            band_free &= ~((px1 > cs - h) & (px0 < cs + h) & along)
-            lanes_free &= ~((px1 > cs - hw) & (px0 < cs + hw) & along)
-        for k in np.flatnonzero(ok):
+            band[i] = (px1 > cs - h) & (px0 < cs + h) & along
+            lanes[i] = (px1 > cs - hw) & (px0 < cs + hw) & along
+        yield a, grasps, band, lanes
+
+
+def plan_grasp(
+    target: np.ndarray, clutter: list[np.ndarray] = (), prefer_angle: float = 0.0, exclude: list[float] = ()
+) -> tuple[float, np.ndarray]:
+    """Approach angle and grasp position (gripper origin) for a target polygon (shelf frame).
+
+    Candidates come from :func:`grasp_candidates` (from ``prefer_angle``, the gripper's current
+    heading, so a re-plan does not swing the arm, and centred outwards; ``exclude``: approaches
+    that already failed). Preference: a wall-free way in with no clutter in the way of the
+    fingers; then one with no clutter between the fingers (clutter ahead of a finger gets pushed
+    aside); then any wall-free way in; then anything that fits.
+    """
+    fits = wall_free = band_only = None
+    for a, grasps, band, lanes in grasp_candidates(target, clutter, prefer_angle, exclude):
+        band_free, lanes_free = ~band.any(axis=0), ~lanes.any(axis=0)
+        for k in range(len(grasps)):
             if fits is None:
                 fits = (a, grasps[k])
-            if (band_free[k] or wall_free is None) and _path_clear(grasps[k], a):
+            if (band_free[k] or wall_free is None) and path_clear(grasps[k], a):
                 if lanes_free[k]:
                     return a, grasps[k]
                 if band_free[k] and band_only is None:
@@ -221,7 +237,7 @@ def plan_grasp(
         return wall_free
     if fits is not None:
         return fits
-    return 0.0, centre + np.array([0.0, -0.02])  # nothing fits: aim at it straight on
+    return 0.0, target.mean(axis=0) + np.array([0.0, -0.02])  # nothing fits: aim at it straight on
 
 
 def way_out(grasp: np.ndarray, angle: float) -> float:
@@ -230,7 +246,7 @@ def way_out(grasp: np.ndarray, angle: float) -> float:
     return max((grasp[1] + C.FINGER_LENGTH - _OUTSIDE_Y) / max(-back_y, 1e-3), 0.0)
 
 
-def _path_clear(grasp: np.ndarray, angle: float) -> bool:
+def path_clear(grasp: np.ndarray, angle: float) -> bool:
     """No part of the open gripper touches a wall at the grasp pose or on the straight line back
     out of the shelf along the approach axis. A part translated along a line sweeps the convex
     hull of its start and end outlines, so one separating-axis test per part and wall suffices."""

@@ -161,7 +161,7 @@ def _stop_ray_if_used(args: argparse.Namespace) -> None:
 
 
 def run_eval(args: argparse.Namespace) -> int:
-    from occrl.eval.methods import METHODS, PLANNERS
+    from occrl.eval.methods import METHODS, PLANNERS, PRIVILEGED
     from occrl.eval.runner import run_tasks, summarize
 
     if args.inference != "torch" and (args.sweep or not (args.method or "").startswith("hybrid")):
@@ -187,7 +187,7 @@ def run_eval(args: argparse.Namespace) -> int:
     if args.sweep:
         from occrl.eval.sweep import run_sweep
 
-        methods = args.methods.split(",") if args.methods else METHODS[:-1]
+        methods = args.methods.split(",") if args.methods else [m for m in METHODS if m not in PRIVILEGED]
         unknown = [m for m in methods if m not in METHODS]
         if unknown:
             print(f"unknown method(s) {unknown}; available: {METHODS}", file=sys.stderr)
@@ -304,8 +304,10 @@ def _summary_table(summary: dict, fmt: str) -> str:
 
 
 def network_of(method: str) -> str | None:
-    """The shipped network a method uses."""
-    if method == "scripted":
+    """The shipped network a method uses (None: it uses none)."""
+    from occrl.eval.methods import PRIVILEGED
+
+    if method in PRIVILEGED or method == "hierarchical":
         return None
     return "occnet-noheatmap" if method in ("greedy", "stochastic") else "occnet"
 

@@ -8,9 +8,22 @@ from pathlib import Path
 
 from torchrl.envs.utils import ExplorationType
 
-__all__ = ["Method", "make_method", "METHODS"]
+__all__ = ["Method", "make_method", "METHODS", "PRIVILEGED"]
 
-METHODS = ["hybrid-2x2", "hybrid-4x4", "hybrid-6x6", "hybrid-lim-4x4", "greedy", "stochastic", "stochastic-gen", "hierarchical", "scripted"]
+METHODS = [
+    "hybrid-2x2",
+    "hybrid-4x4",
+    "hybrid-6x6",
+    "hybrid-lim-4x4",
+    "greedy",
+    "stochastic",
+    "stochastic-gen",
+    "hierarchical",
+    "scripted",
+    "clearing",
+]
+# read the true state (not methods of the paper; left out of sweeps unless named)
+PRIVILEGED = ("scripted", "clearing")
 # planners run one world per task (their per-task planning time is measured exactly)
 PLANNERS = {"hybrid-2x2", "hybrid-4x4", "hybrid-6x6", "hybrid-lim-4x4", "hierarchical"}
 _HYBRID = {"hybrid-2x2": (2, 2, False), "hybrid-4x4": (4, 4, False), "hybrid-6x6": (6, 6, False), "hybrid-lim-4x4": (4, 4, True)}
@@ -47,7 +60,7 @@ def make_method(
 ) -> Method:
     """``hybrid-MxH`` / ``hybrid-lim-4x4`` (planner on the full net), ``greedy`` / ``stochastic``
     (net without heat-map head: mean / sampled action), ``stochastic-gen`` (full net, sampled),
-    ``hierarchical`` (Alg. 3 with OMPL; literal Search), ``scripted`` (privileged). ``weights``
+    ``hierarchical`` (Alg. 3 with OMPL; literal Search), ``scripted`` and ``clearing`` (privileged). ``weights``
     overrides the shipped net. ``rollout_min_scale`` floors the spread of the hybrid planners'
     roll-outs (:class:`~occrl.planners.HybridPlanner`; 0, the paper, for every other method);
     ``inference`` is how their roll-outs call the network (``"torch"`` or ``"onnxruntime"``).
@@ -60,7 +73,7 @@ def make_method(
         >>> make_method("random")  # doctest: +ELLIPSIS
         Traceback (most recent call last):
             ...
-        ValueError: unknown method 'random'; available: ['hybrid-2x2', ..., 'scripted']
+        ValueError: unknown method 'random'; available: ['hybrid-2x2', ..., 'clearing']
     """
     if rollout_min_scale and name not in _HYBRID:
         raise ValueError(f"rollout_min_scale is a hybrid planner setting; {name!r} does not take it")
@@ -85,6 +98,10 @@ def make_method(
         from occrl.baselines import ScriptedRetriever
 
         return Method(name, ScriptedRetriever())
+    if name == "clearing":
+        from occrl.baselines.clearing import ClearingRetriever
+
+        return Method(name, ClearingRetriever())
     if name in ("greedy", "stochastic", "stochastic-gen"):
         net_name = "occnet" if name == "stochastic-gen" else "occnet-noheatmap"
         net = _net(net_name, weights)
