@@ -1,10 +1,12 @@
-"""Baselines: the Greedy and Stochastic policies (:class:`NetPolicy`), the privileged scripted
-retriever and the hierarchical OMPL planner (paper Alg. 3)."""
+"""Baselines: the Greedy and Stochastic policies (:class:`NetPolicy`), the privileged scripted and
+clearing retrievers (teachers, not methods of the paper) and the hierarchical OMPL planner (paper
+Alg. 3)."""
 
 from occrl.baselines.policies import NetPolicy
+from occrl.baselines.clearing import ClearingRetriever
 from occrl.baselines.scripted import ScriptedRetriever
 
-__all__ = ["NetPolicy", "ScriptedRetriever", "HierarchicalPlanner"]
+__all__ = ["NetPolicy", "ScriptedRetriever", "ClearingRetriever", "HierarchicalPlanner"]
 
 
 def __getattr__(name: str):

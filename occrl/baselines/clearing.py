@@ -73,6 +73,11 @@ class ClearingRetriever(ScriptedRetriever):
         super().reset()
         self._spots.clear()
 
+    @property
+    def carries(self) -> int:
+        """How many objects it has set out to carry aside (spots found) since the last reset."""
+        return sum(legs is not None for legs in self._spots.values())
+
     def act(self, gripper_pose, closed: bool, held: bool, target: np.ndarray, clutter: list, key: bytes | None = None) -> np.ndarray:
         """The action for one world from the true target and clutter polygons (shelf frame)."""
         if held or key is None:
