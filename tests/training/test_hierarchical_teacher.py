@@ -220,15 +220,6 @@ def test_trainer_with_the_hierarchical_planner_taking_over(tmp_path):
             seed=0,
             progress=False,
         )
-    with pytest.raises(ValueError, match="takeover_retriever must be one of"):
-        Trainer(
-            get_train_config(
-                "tiny", imitation_teacher="hybrid-acting", collector="single", retrieval_takeover=0.5, takeover_retriever="oracle"
-            ),
-            tmp_path / "c",
-            seed=0,
-            progress=False,
-        )
 
 
 def test_a_takeover_at_the_start_hands_whole_episodes_to_the_retriever(tmp_path):
@@ -250,10 +241,3 @@ def test_a_takeover_at_the_start_hands_whole_episodes_to_the_retriever(tmp_path)
     assert mix.frames_taken_over == 4 * len(whole) and mix.frames == 16
     with pytest.raises(ValueError, match="at must be one of"):
         RetrievalTakeover(HybridPlanner(net, m=2, h=2), retriever, share=0.5, at="midway")
-    with pytest.raises(ValueError, match="takeover_at must be one of"):
-        Trainer(
-            get_train_config("tiny", imitation_teacher="hybrid-acting", collector="single", retrieval_takeover=0.5, takeover_at="midway"),
-            tmp_path,
-            seed=0,
-            progress=False,
-        )

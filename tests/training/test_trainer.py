@@ -1,9 +1,11 @@
 import json
+import re
 
 import pytest
 import torch
 
 from occrl.training import CheckpointError, Curriculum, Trainer, get_train_config, load_checkpoint, load_weights
+from occrl.training.config import SETTING_CHOICES
 from occrl.modules import make_occnet
 from occrl.modules.weights import save_weights
 
@@ -195,8 +197,6 @@ def test_hybrid_promotion_rule(tmp_path):
     assert "hybrid_success_rate" in rows[1]
     with pytest.raises(ValueError, match="needs the heat-map head"):
         Trainer(get_train_config("tiny", promotion="hybrid", heatmap=False), tmp_path / "c", seed=0, progress=False)
-    with pytest.raises(ValueError, match="promotion must be"):
-        Trainer(get_train_config("tiny", promotion="sometimes"), tmp_path / "d", seed=0, progress=False)
 
 
 def test_checkpoints_from_before_a_new_setting_still_resume(tmp_path):
@@ -228,3 +228,10 @@ def test_episode_stats_count_each_rows_first_episode_only():
     data = TensorDict({"next": {"done": done, "success": success, "reward": -torch.ones(3, T, 1)}}, batch_size=[3, T])
     stats = episode_stats(data)
     assert stats == {"success": [False, True], "returns": [-10.0, -4.0], "lengths": [10, 4]}
+
+
+@pytest.mark.parametrize("name", sorted(SETTING_CHOICES))
+def test_a_setting_outside_its_choices_is_refused_before_the_run_folder_is_made(tmp_path, name):
+    with pytest.raises(ValueError, match=re.escape(f"{name} must be one of {SETTING_CHOICES[name]}")):
+        Trainer(get_train_config("tiny", **{name: "no-such-choice"}), tmp_path / "run", seed=0, progress=False)
+    assert not (tmp_path / "run").exists()
