@@ -1,13 +1,14 @@
 """Where does the hybrid planner lose stage-2 tasks: in the search, or in the retrieval?
 
-    python scripts/handover.py --stage 2 --tasks 200 [--weights W.pt] [--to scripted|hierarchical] [--out F.json]
+    python scripts/handover.py --stage 2 --tasks 200 [--weights W.pt] [--to scripted|clearing|hierarchical] [--out F.json]
 
 The hybrid 4x4 planner acts from the start of each held-out task (the README's task seeds; the
 planner reseeded per task as `occrl eval` does, so up to the hand-over the episodes are those of
 the evaluation); from the first step at which perception reports the target, a retriever acts
 instead until the episode ends (``occrl.baselines.handover.SearchThenRetrieve``): the privileged scripted retriever (``--to scripted``: it knows where the target is,
 so it measures how often the retrieval from the planner's hand-over states can be done at all by
-a direct reach, grasp and pull) or the hierarchical planner (``--to hierarchical``: observations
+a direct reach, grasp and pull), the privileged clearing retriever (``--to clearing``: it first
+carries the objects in the target's corridor aside) or the hierarchical planner (``--to hierarchical``: observations
 only, its OMPL reach / rearrange / extract, as `occrl eval` runs it). The retriever's episode
 starts at the hand-over (its first observation is flagged ``is_init``). The planner
 keeps deciding underneath so that its LSTM state follows the real history (its actions are
@@ -42,7 +43,7 @@ def main() -> None:
     parser.add_argument("--stage", type=int, default=2)
     parser.add_argument("--tasks", type=int, default=200)
     parser.add_argument("--weights", default=None, help="the planner's network: a weights file or a shipped name (default: occnet)")
-    parser.add_argument("--to", default="scripted", choices=("scripted", "hierarchical"))
+    parser.add_argument("--to", default="scripted", choices=("scripted", "clearing", "hierarchical"))
     parser.add_argument("--baseline", default=None, help="an `occrl eval --out` file of hybrid 4x4 on the same tasks")
     parser.add_argument("--out", default=None)
     args = parser.parse_args()
