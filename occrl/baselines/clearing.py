@@ -28,8 +28,11 @@ import math
 import numpy as np
 
 from occrl.envs import world_constants as C
-from occrl.envs.geometry import convex_hull, min_width, polygons_overlap, transform_points
+from occrl.envs.geometry import convex_hull, min_width, polygon_centroid, polygons_overlap, transform_points
+from occrl.envs.scene import SceneObject
 from occrl.envs.shelf_geometry import SHELF_WALLS, gripper_polygons
+
+from occrl.planners.recreate import RecreatedState, make_world
 
 from occrl.baselines.scripted import FIT_WIDTH, ScriptedRetriever, grasp_candidates, move_action, path_clear, plan_grasp, way_out
 
@@ -42,6 +45,8 @@ _MIN_CARRY_Y = 0.035  # a carried object's centroid stays this deep in the shelf
 _AT_SPOT = 0.006  # the carried object is at its spot within this distance (m)
 _SIDE_STEPS = np.arange(0.01, 0.301, 0.005)
 _DEPTH_STEP = 0.02
+_SIMULATED_TRIES = 30  # carries simulated when no spot is clear of everything
+_MAX_CARRY_STEPS = 10
 
 
 class ClearingRetriever(ScriptedRetriever):
@@ -52,6 +57,8 @@ class ClearingRetriever(ScriptedRetriever):
         lateral_tolerance: how well (m) the gripper must be lined up before it advances onto an object.
         clear: which objects count as blockers: ``"lanes"`` (anything the fingers would touch on
             the way in) or ``"band"`` (only what would end up between the fingers).
+        simulate: when no spot is clear of everything, try the cheapest carries in a pymunk world
+            of the true state (:func:`find_spot_by_simulation`) before giving up on the blocker.
 
     Examples:
         >>> from occrl.envs import make_env
@@ -62,11 +69,12 @@ class ClearingRetriever(ScriptedRetriever):
         True
     """
 
-    def __init__(self, lateral_tolerance: float = 0.006, clear: str = "band") -> None:
+    def __init__(self, lateral_tolerance: float = 0.006, clear: str = "band", simulate: bool = True) -> None:
         if clear not in CLEARING_MODES:
             raise ValueError(f"clear must be one of {CLEARING_MODES}, got {clear!r}")
         super().__init__(lateral_tolerance)
         self.clear = clear
+        self.simulate = simulate
         self._spots: dict[tuple[bytes, int], tuple[np.ndarray, np.ndarray] | None] = {}  # carry legs by (target key, blocker)
 
     def reset(self) -> None:
@@ -114,7 +122,11 @@ class ClearingRetriever(ScriptedRetriever):
     def _carry_legs(self, key, k, gripper_pose, target, clutter, approach, grasp):
         if (key, k) not in self._spots:
             others = [target, *(p for j, p in enumerate(clutter) if j != k)]
-            self._spots[(key, k)] = find_spot(gripper_pose, clutter[k], others, _corridor_lanes(grasp, approach, self.clear))
+            lanes = _corridor_lanes(grasp, approach, self.clear)
+            legs = find_spot(gripper_pose, clutter[k], others, lanes)
+            if legs is None and self.simulate:
+                legs = find_spot_by_simulation(gripper_pose, k, target, clutter, lanes)
+            self._spots[(key, k)] = legs
         return self._spots[(key, k)]
 
 
@@ -180,31 +192,44 @@ def _touches(polys: list[np.ndarray], obstacles: list[np.ndarray], clearance: fl
     return any(polygons_overlap(p, o, clearance) for p in polys for o in obstacles)
 
 
-def find_spot(gripper_pose, blocker: np.ndarray, others: list[np.ndarray], lanes: tuple) -> tuple[np.ndarray, np.ndarray] | None:
-    """Where to carry a held blocker: the two carry legs' ends (blocker centroid after backing
-    along the arm, then after the sideways move), or None when no spot is found. Spots clear of
-    the corridor are tried from the shortest carry up (see the module docstring)."""
-    x, y, th = (float(v) for v in gripper_pose)
+def _spot_candidates(gripper_pose, blocker: np.ndarray, lanes: tuple) -> list[tuple[float, np.ndarray, np.ndarray]]:
+    """Carry legs (cost, first leg's end, spot) that leave the blocker clear of the corridor,
+    cheapest first: back along the arm to a depth, then sideways; or straight to the spot."""
+    th = float(gripper_pose[2])
     centre = blocker.mean(axis=0)
-    offset = np.array([x, y]) - centre  # the gripper relative to the carried object
-    local = transform_points(blocker - [x, y], (0.0, 0.0, -th))
-    closed_opening = float(local[:, 0].max() - local[:, 0].min())
-    palm, left, right, _ = gripper_polygons(closed_opening)
-    open_parts = gripper_polygons(C.GRIPPER_STROKE)[:3]
-    walls = list(SHELF_WALLS)
     back = np.array([math.sin(th), -math.cos(th)])  # the arm's way back
     candidates = []
     for depth in np.arange(centre[1], _MIN_CARRY_Y - 1e-9, -_DEPTH_STEP):
         start = centre + back * (centre[1] - depth) / max(math.cos(th), 0.3)
         for side in np.concatenate([_SIDE_STEPS, -_SIDE_STEPS]):
             end = start + [side, 0.0]
-            moved = blocker + (end - centre)
-            if not _in_lanes(moved, lanes, _LANE_MARGIN):
+            if not _in_lanes(blocker + (end - centre), lanes, _LANE_MARGIN):
                 candidates.append((float(np.linalg.norm(start - centre) + abs(side)), start, end))
                 candidates.append((float(np.linalg.norm(end - centre)), centre, end))  # straight there
     candidates.sort(key=lambda c: c[0])
+    return candidates
+
+
+def _held_opening(gripper_pose, blocker: np.ndarray) -> float:
+    """How far apart the closed fingers stand on a held object (its width across the gripper axis)."""
+    local = transform_points(blocker - np.asarray(gripper_pose[:2], float), (0.0, 0.0, -float(gripper_pose[2])))
+    return float(local[:, 0].max() - local[:, 0].min())
+
+
+def find_spot(gripper_pose, blocker: np.ndarray, others: list[np.ndarray], lanes: tuple) -> tuple[np.ndarray, np.ndarray] | None:
+    """Where to carry a held blocker: the two carry legs' ends (blocker centroid after backing
+    along the arm, then after the sideways move), or None when no spot is found. Spots clear of
+    the corridor are tried from the shortest carry up; a spot counts when the swept outlines touch
+    nothing (see the module docstring)."""
+    x, y, th = (float(v) for v in gripper_pose)
+    centre = blocker.mean(axis=0)
+    offset = np.array([x, y]) - centre  # the gripper relative to the carried object
+    palm, left, right, _ = gripper_polygons(_held_opening(gripper_pose, blocker))
+    open_parts = gripper_polygons(C.GRIPPER_STROKE)[:3]
+    walls = list(SHELF_WALLS)
+    back = np.array([math.sin(th), -math.cos(th)])
     held_parts = [transform_points(p, (x, y, th)) for p in (palm, left, right)]
-    for _, start, end in candidates:
+    for _, start, end in _spot_candidates(gripper_pose, blocker, lanes):
         shift1, shift2 = start - centre, end - start
         leg1 = _swept([blocker, *held_parts], shift1)
         if _touches(leg1, others, 0.001):
@@ -221,6 +246,68 @@ def find_spot(gripper_pose, blocker: np.ndarray, others: list[np.ndarray], lanes
             continue
         return start, end
     return None
+
+
+def find_spot_by_simulation(
+    gripper_pose, index: int, target: np.ndarray, clutter: list[np.ndarray], lanes: tuple, tries: int = _SIMULATED_TRIES
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """Where to carry held ``clutter[index]`` when no spot is clear of everything: the cheapest
+    ``tries`` carries (:func:`_spot_candidates`) are simulated in a pymunk world of the true state
+    (pushing allowed), with the release and the way back out; the first after which nothing was
+    dropped, the target stayed put (within 5 mm), the blocker lies clear of the corridor and no
+    other object was pushed into it wins. None if none does."""
+    polygons = [target, *clutter]
+    objects = [
+        SceneObject(type_id=i + 1, vertices=p - polygon_centroid(p), pose=(*polygon_centroid(p), 0.0), is_target=i == 0)
+        for i, p in enumerate(polygons)
+    ]
+    state = RecreatedState(
+        tuple(objects), tuple(float(v) for v in gripper_pose), _held_opening(gripper_pose, clutter[index]), True, 1, objects[0].vertices
+    )
+    world = make_world(state)
+    if world.held != index + 1:
+        return None  # the simulator does not see it held
+    snap = world.snapshot()
+    local = [o.vertices for o in objects]
+    blocked_before = {j for j, p in enumerate(clutter) if j != index and _in_lanes(p, lanes)}
+
+    def polygons_now() -> list[np.ndarray]:
+        return [transform_points(v, pose) for v, pose in zip(local, world.object_poses())]
+
+    for _, start, end in _spot_candidates(gripper_pose, clutter[index], lanes)[:tries]:
+        world.restore(snap)
+        ok = False
+        for _step in range(_MAX_CARRY_STEPS):
+            action = _carry(world.gripper_pose(), polygons_now()[index + 1], (start, end))
+            outcome = world.step(action)
+            if outcome.dropped:
+                break
+            if action[3] < 0:  # released: back out of the shelf
+                for _back in range(_MAX_CARRY_STEPS):
+                    if not is_inside(world.gripper_pose()):
+                        break
+                    if world.step(np.array([-1.0, 0.0, 0.0, -1.0])).dropped:
+                        break
+                else:
+                    break
+                ok = not is_inside(world.gripper_pose())
+                break
+        if not ok:
+            continue
+        now = polygons_now()
+        if np.linalg.norm(polygon_centroid(now[0]) - polygon_centroid(target)) > 0.005:
+            continue
+        if _in_lanes(now[index + 1], lanes):
+            continue
+        if any(_in_lanes(p, lanes) and j not in blocked_before for j, p in enumerate(now[1:]) if j != index):
+            continue
+        return start, end
+    return None
+
+
+def is_inside(gripper_pose) -> bool:
+    """Whether the fingertips of a gripper at this pose are inside the shelf."""
+    return gripper_pose[1] + math.cos(gripper_pose[2]) * C.FINGER_LENGTH > -0.01
 
 
 def _carry(gripper_pose, blocker: np.ndarray, legs: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
