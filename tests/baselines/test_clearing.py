@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from occrl.baselines import ScriptedRetriever
-from occrl.baselines.clearing import ClearingRetriever, clearing_plan, find_spot
+from occrl.baselines.clearing import ClearingRetriever, clearing_plan, find_spot, find_spot_by_simulation
 from occrl.baselines.scripted import grasp_candidates, path_clear
 from occrl.envs import ShelfEnv
 from occrl.envs.episodes import run_episodes, task_scenes
@@ -51,6 +51,18 @@ def test_a_spot_takes_the_blocker_out_of_the_corridor_without_touching_anything(
     assert start[1] <= blocker.mean(axis=0)[1] and moved[:, 1].mean() > 0.0  # backed out, still in the shelf
     packed = others + [box(0.03, x, y) for x in np.arange(-0.2, 0.21, 0.07) for y in (0.05, 0.11) if abs(x) > 0.05]
     assert find_spot(gripper, blocker, packed, lanes) is None  # no room anywhere: none
+
+
+def test_a_simulated_carry_may_push_a_neighbour_when_no_spot_is_clear():
+    gripper = np.array([0.0, 0.12, 0.0])  # the closed fingers around the middle blocker
+    lanes = (np.array([0.0, 0.27 - 0.024]), 0.0, 0.085 / 2 + 0.012, -0.3, 0.045)
+    packed = [box(0.03, x, y) for x in np.arange(-0.2, 0.21, 0.07) for y in (0.05, 0.11) if abs(x) > 0.05]
+    clutter = [*ROW, *packed]
+    assert find_spot(gripper, ROW[1], [TARGET, ROW[0], ROW[2], *packed], lanes) is None
+    start, end = find_spot_by_simulation(gripper, 1, TARGET, clutter, lanes)
+    assert abs(end[0]) - 0.02 > lanes[2]  # the spot lies beside the corridor
+    far = np.array([0.0, -0.2, 0.0])
+    assert find_spot_by_simulation(far, 1, TARGET, clutter, lanes) is None  # not held in the simulator: none
 
 
 def test_carries_a_blocker_aside_where_the_scripted_retriever_fails():
