@@ -108,19 +108,14 @@ class ClearingRetriever(ScriptedRetriever):
         others = [target, *(p for j, p in enumerate(clutter) if j != k)]
         return super().act(gripper_pose, closed, False, clutter[k], others, b"blocker" + key + bytes([k]))
 
-    def grasp_plan(self, target: np.ndarray, clutter: list, heading: float, key: bytes | None = None) -> tuple[float, np.ndarray]:
-        """:func:`clearing_plan` for ``target``, cached under ``key`` (the target's quantised pose)."""
-        plan = self._plans.get(key) if key is not None else None
-        if plan is None:
-            plan = clearing_plan(target, clutter, heading, self.clear)
-            if key is not None:
-                if len(self._plans) > 4096:
-                    self.reset()
-                self._plans[key] = plan
-        return plan
+    def plan(self, target: np.ndarray, clutter: list, heading: float) -> tuple[float, np.ndarray]:
+        """Approach angle and grasp position for the target: :func:`clearing_plan`."""
+        return clearing_plan(target, clutter, heading, self.clear)
 
     def _carry_legs(self, key, k, gripper_pose, target, clutter, approach, grasp):
         if (key, k) not in self._spots:
+            if len(self._spots) > 4096:
+                self._spots.clear()
             others = [target, *(p for j, p in enumerate(clutter) if j != k)]
             lanes = _corridor_lanes(grasp, approach, self.clear)
             legs = find_spot(gripper_pose, clutter[k], others, lanes)

@@ -113,16 +113,19 @@ class ScriptedRetriever(TensorDictModuleBase):
 
     # ------------------------------------------------------------------ one world
     def grasp_plan(self, target: np.ndarray, clutter: list, heading: float, key: bytes | None = None) -> tuple[float, np.ndarray]:
-        """:func:`plan_grasp` for ``target``, cached under ``key`` (the target's quantised pose)."""
+        """:meth:`plan` for ``target``, cached under ``key`` (the target's quantised pose)."""
         plan = self._plans.get(key) if key is not None else None
         if plan is None:
-            plan = plan_grasp(target, clutter, prefer_angle=heading)
+            plan = self.plan(target, clutter, heading)
             if key is not None:
                 if len(self._plans) > 4096:
-                    self._plans.clear()
-                    self._tried.clear()
+                    self.reset()
                 self._plans[key] = plan
         return plan
+
+    def plan(self, target: np.ndarray, clutter: list, heading: float) -> tuple[float, np.ndarray]:
+        """Approach angle and grasp position for the target: :func:`plan_grasp`."""
+        return plan_grasp(target, clutter, prefer_angle=heading)
 
     def act(self, gripper_pose, closed: bool, held: bool, target: np.ndarray, clutter: list, key: bytes | None = None) -> np.ndarray:
         """The action for one world from the true target and clutter polygons (shelf frame)."""
