@@ -33,7 +33,7 @@ def make_parser() -> argparse.ArgumentParser:
     d.add_argument("--seed", type=SEED, default=2024)
     d.add_argument("--out", default="occrl-demo")
     d.add_argument("--fps", type=POSITIVE, default=4.0)
-    d.add_argument("--method", default="hybrid-4x4", choices=["hybrid-2x2", "hybrid-4x4", "hybrid-6x6", "scripted"])
+    d.add_argument("--method", default="hybrid-4x4", choices=["hybrid-2x2", "hybrid-4x4", "hybrid-6x6", "scripted", "clearing"])
     d.add_argument("--weights", default=None, help="network weights file or a shipped network's name instead of occnet")
     d.add_argument(
         "--world",

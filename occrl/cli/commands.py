@@ -36,7 +36,7 @@ def run_demo(args: argparse.Namespace) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     method = args.method
-    if method != "scripted" and not args.weights and "occnet" not in available():
+    if method not in ("scripted", "clearing") and not args.weights and "occnet" not in available():
         print("no shipped network in this installation: showing the privileged scripted retriever instead")
         method = "scripted"
     primers = []
@@ -44,6 +44,10 @@ def run_demo(args: argparse.Namespace) -> int:
         from occrl.baselines import ScriptedRetriever
 
         policy, label = ScriptedRetriever(), "privileged scripted retriever (reads the true target pose)"
+    elif method == "clearing":
+        from occrl.baselines import ClearingRetriever
+
+        policy, label = ClearingRetriever(), "privileged clearing retriever (reads the true state, carries blockers aside)"
     else:
         from occrl.planners import HybridPlanner
         from occrl.modules.weights import load_weights

@@ -54,8 +54,9 @@ def test_bad_numbers_get_one_line_errors(argv, message, capsys):
     assert message in err and "Traceback" not in err
 
 
-def test_demo_writes_summary_gif_and_strip(tmp_path):
-    assert main(["demo", "--method", "scripted", "--tasks", "1", "--out", str(tmp_path)]) == 0
+@pytest.mark.parametrize("method", ["scripted", "clearing"])
+def test_demo_writes_summary_gif_and_strip(tmp_path, method):
+    assert main(["demo", "--method", method, "--tasks", "1", "--out", str(tmp_path)]) == 0
     summary = json.loads((tmp_path / "demo_summary.json").read_text())
     assert len(summary["tasks"]) == 1
     assert (tmp_path / "demo.gif").stat().st_size > 1000 and (tmp_path / "demo_strip.png").stat().st_size > 1000
