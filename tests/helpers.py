@@ -26,15 +26,3 @@ def world_to_crop_pixel(point, gripper_pose, window=0.8, size=64, forward_offset
     d = np.linalg.norm(pts - np.asarray(point, float), axis=-1)
     r, c = np.unravel_index(d.argmin(), d.shape)
     return int(r), int(c)
-
-
-def frames_taken_over(shown, is_init):
-    """Per frame (worlds x steps): whether a take-over at the first sight of the target holds —
-    from the first frame that shows it (``shown``) to the episode's end (the next ``is_init``)."""
-    import torch
-
-    taken = torch.zeros_like(shown)
-    for t in range(shown.shape[1]):
-        before = taken[:, t - 1] & ~is_init[:, t] if t else torch.zeros_like(shown[:, 0])
-        taken[:, t] = before | shown[:, t]
-    return taken

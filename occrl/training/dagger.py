@@ -33,6 +33,7 @@ __all__ = [
     "label_with_expert",
     "label_with_planner",
     "relabel_retrieval",
+    "since_first_sight",
     "target_in_view",
 ]
 
@@ -308,6 +309,30 @@ def target_in_view(data: TensorDictBase) -> torch.Tensor:
     detected = data.get(("objects", "detected"))
     same_type = data.get(("objects", "type_id")) == data.get("target_type")
     return (detected & same_type).any(-1)
+
+
+def since_first_sight(data: TensorDictBase) -> torch.Tensor:
+    """Per frame of a collected batch (worlds x steps): whether the target has been in view
+    (:func:`target_in_view`) at this frame or earlier in the same episode (``"is_init"`` starts
+    one). Shape: the batch's.
+
+    Examples:
+        >>> import torch
+        >>> from occrl.envs import make_env
+        >>> from occrl.modules import make_occnet
+        >>> from occrl.training.dagger import since_first_sight, target_in_view
+        >>> net = make_occnet("paper")
+        >>> data = make_env(batch_size=2, stage=2, seed=1).append_transform(net.make_primer()).rollout(3, net.policy)
+        >>> bool((since_first_sight(data) >= target_in_view(data)).all())
+        True
+    """
+    shown = target_in_view(data)
+    starts = data.get("is_init").reshape(shown.shape)
+    seen = torch.zeros_like(shown)
+    for t in range(shown.shape[-1]):
+        before = seen[..., t - 1] & ~starts[..., t] if t else torch.zeros_like(shown[..., 0])
+        seen[..., t] = before | shown[..., t]
+    return seen
 
 
 def relabel_retrieval(data: TensorDictBase, expert: ScriptedRetriever) -> TensorDictBase:

@@ -46,6 +46,7 @@ from occrl.training.dagger import (
     label_with_expert,
     label_with_planner,
     relabel_retrieval,
+    since_first_sight,
 )
 from occrl.training.learner import Learner
 from occrl.training.run_folder import (
@@ -198,6 +199,8 @@ class Trainer:
             from occrl.baselines.hierarchical import HierarchicalPlanner  # needs OMPL
 
             self.expert = HierarchicalPlanner(seed=self.seed, **HIERARCHICAL_TEACHER)
+        elif config.imitation_teacher == "clearing":
+            self.expert = ClearingRetriever()
         else:
             self.expert = ScriptedRetriever()
         self.retriever = ScriptedRetriever()  # labels the target-in-view steps (retrieval_labels="scripted")
@@ -394,6 +397,8 @@ class Trainer:
                     pass  # labelled while collecting (OnlineTeacherPolicy), in every phase
                 elif phase == "imitation":
                     label_with_expert(data, self.expert)
+                    if c.imitation_teacher == "clearing":  # retrieval labels only: the learner keeps its search
+                        data.set("expert_weight", since_first_sight(data).to(torch.float32))
                 consistent, unfinished = False, self.iteration + 1
                 batch = self.learner.on_device(data)  # the collected batch (CPU) where the learner is
                 compute_advantages(self.net, batch, c.gamma, c.gae_lambda)

@@ -10,7 +10,6 @@ from occrl.modules import make_occnet
 from occrl.planners import HybridPlanner
 from occrl.training import Trainer, get_train_config
 from occrl.training.dagger import label_with_planner
-from tests.helpers import frames_taken_over
 
 
 def test_planner_labels_are_its_decisions_without_privileged_state():
@@ -105,15 +104,13 @@ def test_retrieval_takeover_lets_the_scripted_retriever_act_from_the_first_sight
     the target and the scripted retriever from there to the episode's end; the executed actions
     are the labels."""
     from occrl.baselines import ScriptedRetriever
-    from occrl.training.dagger import RetrievalTakeover, label_with_expert, target_in_view
+    from occrl.training.dagger import RetrievalTakeover, label_with_expert, since_first_sight
 
     cfg = get_train_config("tiny", imitation_iters=5, imitation_teacher="hybrid-acting", collector="single", retrieval_takeover=1.0)
     tr = Trainer(cfg, tmp_path, seed=1, progress=False, tensorboard=False)
     assert isinstance(tr.expert, RetrievalTakeover)
     data = tr._collect()
-    shown = target_in_view(data)
-    is_init = data["is_init"].reshape(shown.shape)
-    taken = frames_taken_over(shown, is_init)
+    taken = since_first_sight(data)
     assert taken.any() and not taken.all()
     assert tr.expert.frames_taken_over == int(taken.sum()) and tr.expert.frames == data.numel()
     scripted = label_with_expert(data.clone(), ScriptedRetriever())["expert_action"]
@@ -149,3 +146,40 @@ def test_the_clearing_retriever_can_take_over(tmp_path):
     tr.close()
     row = json.loads((tmp_path / "metrics.jsonl").read_text().splitlines()[0])
     assert 0 < row["takeover_share"] <= 1
+
+
+def test_since_first_sight_holds_from_the_first_view_of_the_target_to_the_episode_end():
+    from tensordict import TensorDict
+
+    from occrl.training.dagger import since_first_sight
+
+    shown = torch.tensor([[False, True, False, False, True, False]])  # seen at 1 and 4
+    is_init = torch.tensor([[True, False, False, True, False, False]])  # episodes start at 0 and 3
+    data = TensorDict(
+        {
+            "objects": TensorDict(
+                {"detected": shown.unsqueeze(-1), "type_id": torch.ones(1, 6, 1, dtype=torch.long)}, batch_size=[1, 6, 1]
+            ),
+            "target_type": torch.ones(1, 6, 1, dtype=torch.long),
+            "is_init": is_init.unsqueeze(-1),
+        },
+        batch_size=[1, 6],
+    )
+    assert since_first_sight(data).tolist() == [[False, True, True, False, True, True]]
+
+
+def test_the_clearing_teacher_labels_only_from_the_first_sight_of_the_target(tmp_path):
+    from occrl.baselines.clearing import ClearingRetriever
+
+    cfg = get_train_config("tiny", imitation_iters=5, imitation_teacher="clearing", imitation_beta_iters=0, imitation_beta_min=0.5)
+    tr = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False)
+    assert isinstance(tr.expert, ClearingRetriever)
+    tr.train(iterations=1)
+    tr.close()
+    row = json.loads((tmp_path / "metrics.jsonl").read_text().splitlines()[0])
+    assert row["phase"] == "imitation" and torch.isfinite(torch.tensor(row["loss_imitation"]))
+    (batch,) = tr.learner.dagger.batches  # the labelled batch the update imitated
+    weight = batch["expert_weight"].reshape(batch.shape)
+    starts = batch["is_init"].reshape(batch.shape)
+    assert set(weight.unique().tolist()) == {0.0, 1.0}  # some frames before the first sight, some after
+    assert bool(((weight[:, 1:] >= weight[:, :-1]) | starts[:, 1:]).all())  # once labelled, to the episode end

@@ -15,7 +15,7 @@ from occrl.envs import world_constants as C
 from occrl.modules import make_occnet
 from occrl.training import Trainer, get_train_config
 from occrl.training.dagger import OnlineTeacherPolicy
-from tests.helpers import frames_taken_over, scene
+from tests.helpers import scene
 
 TOLERANCE = (0.01, math.radians(10.0))
 
@@ -175,7 +175,7 @@ def test_the_hierarchical_planner_takes_over_with_a_memory_per_world():
     world's observations (observation keys only) from the first sight of the target on, the first
     flagged as an episode start; the planner acts before."""
     from occrl.planners import HybridPlanner
-    from occrl.training.dagger import RetrievalTakeover, target_in_view
+    from occrl.training.dagger import RetrievalTakeover, since_first_sight
 
     torch.manual_seed(0)
     net = make_occnet("paper").eval()
@@ -183,8 +183,7 @@ def test_the_hierarchical_planner_takes_over_with_a_memory_per_world():
     mix = RetrievalTakeover(HybridPlanner(net, m=2, h=2), RecordingPlanner(plan_seconds=0.2, follow_tolerance=TOLERANCE), share=1.0, seed=3)
     assert mix.remembers
     data = env.rollout(6, mix, break_when_any_done=False)
-    shown, is_init = target_in_view(data), data["is_init"].reshape(data.shape)
-    taken = frames_taken_over(shown, is_init)
+    taken = since_first_sight(data)
     assert taken.any() and not taken.all()  # some worlds search first
     assert mix.frames_taken_over == int(taken.sum()) and mix.frames == data.numel()
     assert len(mix.world_retrievers) == 4 and all(c is not mix.retriever for c in mix.world_retrievers)
