@@ -8,17 +8,19 @@ must never be used where only perception is allowed.
 
 Strategy, re-planned every step from the true state (closed loop):
 
-1. Plan the target's grasp (:func:`~occrl.baselines.scripted.plan_grasp`, cached while the target
-   does not move) and find the *blockers*: objects whose bounding box, in the approach frame,
-   reaches into the corridor the fingers sweep on the way in (``clear="lanes"``: fingers
-   included; ``clear="band"``: only the space between them) and that the fingers can take.
-2. No blocker: retrieve the target (the scripted retriever's steps).
+1. Plan the target's approach with the fewest *blockers* (:func:`clearing_plan`, cached while the
+   target does not move): objects whose bounding box, in the approach frame, reaches into the
+   corridor the fingers sweep on the way in (``clear="band"``: the space between the fingers;
+   ``clear="lanes"``: the fingers too), preferring blockers the fingers can take.
+2. No blocker left: retrieve the target (the scripted retriever's steps).
 3. Otherwise take the front-most blocker (reach and close as for the target), then carry it to
-   a *spot*: back along the arm (the way in) to a depth ``y``, then sideways to an ``x``, so that
-   it lies clear of the target's corridor. Spots are searched from the shortest carry up; a spot
-   counts when the swept outlines of the object and the closed gripper touch nothing on both
-   legs, the open gripper fits there and backs out freely. The gripper opens at the spot and
-   backs out. A blocker without a spot is left to be pushed (as the scripted retriever does).
+   a *spot* clear of the fingers' way to the target: back along the arm to a depth, then
+   sideways, or straight there; spots are tried from the shortest carry up. A spot counts when
+   the swept outlines of the object and the closed gripper touch nothing, the open gripper fits
+   there and backs out freely (:func:`find_spot`); if none does, the cheapest carries are
+   simulated in a pymunk world of the true state, pushing allowed (:func:`find_spot_by_simulation`).
+   The gripper opens at the spot and backs out. A blocker without a spot is left to be pushed
+   (as the scripted retriever does).
 """
 
 from __future__ import annotations
@@ -34,9 +36,18 @@ from occrl.envs.shelf_geometry import SHELF_WALLS, gripper_polygons
 
 from occrl.planners.recreate import RecreatedState, make_world
 
-from occrl.baselines.scripted import FIT_WIDTH, ScriptedRetriever, grasp_candidates, move_action, path_clear, plan_grasp, way_out
+from occrl.baselines.scripted import (
+    FIT_WIDTH,
+    ScriptedRetriever,
+    fingertips_inside,
+    grasp_candidates,
+    move_action,
+    path_clear,
+    plan_grasp,
+    way_out,
+)
 
-__all__ = ["ClearingRetriever", "CLEARING_MODES"]
+__all__ = ["ClearingRetriever", "CLEARING_MODES", "clearing_plan", "find_spot", "find_spot_by_simulation"]
 
 CLEARING_MODES = ("band", "lanes")
 _LANE_MARGIN = 0.005  # a placed object keeps this far (m) from the fingers' way to the target
@@ -279,13 +290,13 @@ def find_spot_by_simulation(
                 break
             if action[3] < 0:  # released: back out of the shelf
                 for _back in range(_MAX_CARRY_STEPS):
-                    if not is_inside(world.gripper_pose()):
+                    if not fingertips_inside(world.gripper_pose()):
                         break
                     if world.step(np.array([-1.0, 0.0, 0.0, -1.0])).dropped:
                         break
                 else:
                     break
-                ok = not is_inside(world.gripper_pose())
+                ok = not fingertips_inside(world.gripper_pose())
                 break
         if not ok:
             continue
@@ -298,11 +309,6 @@ def find_spot_by_simulation(
             continue
         return start, end
     return None
-
-
-def is_inside(gripper_pose) -> bool:
-    """Whether the fingertips of a gripper at this pose are inside the shelf."""
-    return gripper_pose[1] + math.cos(gripper_pose[2]) * C.FINGER_LENGTH > -0.01
 
 
 def _carry(gripper_pose, blocker: np.ndarray, legs: tuple[np.ndarray, np.ndarray]) -> np.ndarray:

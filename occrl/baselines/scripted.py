@@ -31,7 +31,7 @@ from occrl.envs.geometry import convex_hull, polygons_overlap, transform_points,
 from occrl.envs.shelf_geometry import SHELF_WALLS, gripper_polygons
 from occrl.envs.pymunk2d.world import grasp_candidate
 
-__all__ = ["ScriptedRetriever", "plan_grasp", "grasp_candidates", "way_out", "path_clear", "move_action"]
+__all__ = ["ScriptedRetriever", "plan_grasp", "grasp_candidates", "way_out", "path_clear", "move_action", "fingertips_inside", "FIT_WIDTH"]
 
 _APPROACH_ANGLES = np.radians(np.arange(-45.0, 45.1, 5.0))
 FIT_WIDTH = C.GRIPPER_STROKE - 0.012  # the widest object the open fingers take with room to spare
@@ -147,7 +147,7 @@ class ScriptedRetriever(TensorDictModuleBase):
             approach, grasp = self._plans[key]
             e = _rot(np.array([x, y]) - grasp, -approach)
             dth = _wrap(approach - th)
-        inside = y + math.cos(th) * C.FINGER_LENGTH > _OUTSIDE_Y  # fingertips in the shelf
+        inside = fingertips_inside(gripper_pose)
         if abs(e[0]) < self.lateral_tolerance and abs(dth) < math.radians(3):
             # lined up: advance onto the target, slowly over the last centimetres
             step_g = np.array([-e[0], -e[1] if -e[1] > 0.06 else min(-e[1], 0.025)])
@@ -241,6 +241,11 @@ def plan_grasp(
     if fits is not None:
         return fits
     return 0.0, target.mean(axis=0) + np.array([0.0, -0.02])  # nothing fits: aim at it straight on
+
+
+def fingertips_inside(gripper_pose) -> bool:
+    """Whether the fingertips of a gripper at this pose (shelf frame) are in the shelf."""
+    return gripper_pose[1] + math.cos(gripper_pose[2]) * C.FINGER_LENGTH > _OUTSIDE_Y
 
 
 def way_out(grasp: np.ndarray, angle: float) -> float:
