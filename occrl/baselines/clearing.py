@@ -258,7 +258,7 @@ def find_spot_by_simulation(
     gripper_pose, index: int, target: np.ndarray, clutter: list[np.ndarray], lanes: tuple, tries: int = _SIMULATED_TRIES
 ) -> tuple[np.ndarray, np.ndarray] | None:
     """Where to carry held ``clutter[index]`` when no spot is clear of everything: the cheapest
-    ``tries`` carries (:func:`_spot_candidates`) are simulated in a pymunk world of the true state
+    ``tries`` carries (the candidates :func:`find_spot` tries) are simulated in a pymunk world of the true state
     (pushing allowed), with the release and the way back out; the first after which nothing was
     dropped, the target stayed put (within 5 mm), the blocker lies clear of the corridor and no
     other object was pushed into it wins. None if none does."""

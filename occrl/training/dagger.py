@@ -8,9 +8,10 @@ that, like the learner, sees only detections and searches for a hidden target.
 :class:`OnlineTeacherPolicy` labels while collecting, for a teacher that keeps a memory of the
 episode (the hierarchical planner: accumulated detections, its stage and its current plan), which
 must see every observation of the learner's episode in order. :class:`RetrievalTakeover` lets the
-privileged scripted retriever (or the hierarchical planner) act in a share of the episodes from
-the first sight of the target (or from the start), so that its labels lie on its own, consistent
-trajectories.
+privileged scripted or clearing retriever (or the hierarchical planner) act in a share of the
+episodes from the first sight of the target (or from the start), so that its labels lie on its
+own, consistent trajectories. :func:`since_first_sight` marks the frames a retrieval teacher labels
+(``imitation_teacher="clearing"``).
 """
 
 from __future__ import annotations
@@ -160,8 +161,8 @@ class RetrievalTakeover(TensorDictModuleBase):
     take over is drawn per world at each episode start (probability ``share``, from a generator
     reseeded with :meth:`reseed`); the planner decides only for the worlds it still acts in.
 
-    The retriever is the privileged scripted retriever (called on the taken-over worlds together)
-    or a decision maker with an episode memory, one that reads ``"is_init"`` (the hierarchical
+    The retriever is a privileged one, scripted or clearing (called on the taken-over worlds
+    together), or a decision maker with an episode memory, one that reads ``"is_init"`` (the hierarchical
     planner): it is then copied once per world, each copy sees its world's observations from the
     hand-over on, the first flagged as an episode start (``"is_init"``), as
     :class:`occrl.baselines.handover.SearchThenRetrieve` hands over; copy ``b`` is reseeded with
