@@ -129,25 +129,6 @@ def test_retrieval_takeover_lets_the_scripted_retriever_act_from_the_first_sight
         )
 
 
-def test_the_clearing_retriever_can_take_over(tmp_path):
-    from occrl.baselines.clearing import ClearingRetriever
-
-    cfg = get_train_config(
-        "tiny",
-        imitation_iters=5,
-        imitation_teacher="hybrid-acting",
-        collector="single",
-        retrieval_takeover=1.0,
-        takeover_retriever="clearing",
-    )
-    tr = Trainer(cfg, tmp_path, seed=1, progress=False, tensorboard=False)
-    assert isinstance(tr.expert.retriever, ClearingRetriever) and not tr.expert.remembers
-    tr.train(iterations=1)
-    tr.close()
-    row = json.loads((tmp_path / "metrics.jsonl").read_text().splitlines()[0])
-    assert 0 < row["takeover_share"] <= 1
-
-
 def test_since_first_sight_holds_from_the_first_view_of_the_target_to_the_episode_end():
     from tensordict import TensorDict
 

@@ -8,7 +8,7 @@ import math
 import pytest
 import torch
 
-from occrl.baselines import ScriptedRetriever
+from occrl.baselines import ClearingRetriever, ScriptedRetriever
 from occrl.baselines.hierarchical import HierarchicalPlanner
 from occrl.envs import make_env
 from occrl.envs import world_constants as C
@@ -197,24 +197,22 @@ def test_the_hierarchical_planner_takes_over_with_a_memory_per_world():
     assert [c.seed for c in mix.world_retrievers] == [3000, 3001, 3002, 3003]
 
 
-def test_trainer_with_the_hierarchical_planner_taking_over(tmp_path):
+@pytest.mark.parametrize("name, kind, remembers", [("hierarchical", HierarchicalPlanner, True), ("clearing", ClearingRetriever, False)])
+def test_trainer_with_a_retriever_taking_over(tmp_path, name, kind, remembers):
+    """takeover_retriever: the hierarchical planner (copied per world: it remembers the episode) or
+    the privileged clearing retriever (called on the taken-over worlds together)."""
     cfg = get_train_config(
-        "tiny",
-        imitation_iters=5,
-        imitation_teacher="hybrid-acting",
-        collector="single",
-        retrieval_takeover=1.0,
-        takeover_retriever="hierarchical",
+        "tiny", imitation_iters=5, imitation_teacher="hybrid-acting", collector="single", retrieval_takeover=1.0, takeover_retriever=name
     )
     tr = Trainer(cfg, tmp_path, seed=1, progress=False, tensorboard=False)
-    assert isinstance(tr.expert.retriever, HierarchicalPlanner) and tr.expert.remembers
+    assert isinstance(tr.expert.retriever, kind) and tr.expert.remembers == remembers
     tr.train(iterations=1)
     tr.close()
     row = json.loads((tmp_path / "metrics.jsonl").read_text().splitlines()[0])
     assert 0 < row["takeover_share"] <= 1
     with pytest.raises(ValueError, match="need retrieval_takeover > 0"):
         Trainer(
-            get_train_config("tiny", imitation_teacher="hybrid-acting", collector="single", takeover_retriever="hierarchical"),
+            get_train_config("tiny", imitation_teacher="hybrid-acting", collector="single", takeover_retriever=name),
             tmp_path / "b",
             seed=0,
             progress=False,
