@@ -68,7 +68,11 @@ def make_parser() -> argparse.ArgumentParser:
     t.set_defaults(func=run_train)
 
     e = sub.add_parser("eval", help="run a method on fixed task seeds and report success, actions, time")
-    e.add_argument("--method", help="hybrid-2x2, hybrid-4x4, hybrid-6x6, hybrid-lim-4x4, greedy, stochastic, stochastic-gen, scripted")
+    e.add_argument(
+        "--method",
+        help="hybrid-2x2, hybrid-4x4, hybrid-6x6, hybrid-lim-4x4, greedy, stochastic, stochastic-gen, hierarchical, "
+        "or the privileged scripted and clearing",
+    )
     e.add_argument("--sweep", action="store_true", help="the papers' clutter and noise sweeps (resumable; --out is a folder)")
     e.add_argument(
         "--methods", default=None, help="comma-separated methods for --sweep (default: all but the privileged scripted and clearing)"
