@@ -186,23 +186,10 @@ class Trainer:
         if config.imitation_teacher == "hybrid-acting":
             self.expert = HybridPlanner(self.acting_net, m=4, h=4, seed=self.seed, inference=config.teacher_inference, batch_worlds=True)
             if config.retrieval_takeover > 0:  # a retriever acts in a share of the retrievals
-                if config.takeover_retriever == "hierarchical":
-                    from occrl.baselines.hierarchical import HierarchicalPlanner  # needs OMPL
-
-                    taker = HierarchicalPlanner(seed=self.seed, **HIERARCHICAL_TEACHER)
-                elif config.takeover_retriever == "clearing":
-                    taker = ClearingRetriever()
-                else:
-                    taker = ScriptedRetriever()
+                taker = self._teacher(config.takeover_retriever)
                 self.expert = RetrievalTakeover(self.expert, taker, config.retrieval_takeover, seed=self.seed, at=config.takeover_at)
-        elif config.imitation_teacher == "hierarchical":
-            from occrl.baselines.hierarchical import HierarchicalPlanner  # needs OMPL
-
-            self.expert = HierarchicalPlanner(seed=self.seed, **HIERARCHICAL_TEACHER)
-        elif config.imitation_teacher == "clearing":
-            self.expert = ClearingRetriever()
         else:
-            self.expert = ScriptedRetriever()
+            self.expert = self._teacher(config.imitation_teacher)
         self.retriever = ScriptedRetriever()  # labels the target-in-view steps (retrieval_labels="scripted")
         for leftover in self.run_dir.glob("*.tmp"):  # a write a crash interrupted; its target is intact
             leftover.unlink()
@@ -302,6 +289,15 @@ class Trainer:
         return self.acting_net.policy
 
     # ------------------------------------------------------------------ one iteration
+    def _teacher(self, name: str):
+        """The teacher or taker-over that is not the hybrid planner: the hierarchical planner (with
+        the teacher's settings), the privileged clearing retriever, or the scripted one (otherwise)."""
+        if name == "hierarchical":
+            from occrl.baselines.hierarchical import HierarchicalPlanner  # needs OMPL
+
+            return HierarchicalPlanner(seed=self.seed, **HIERARCHICAL_TEACHER)
+        return ClearingRetriever() if name == "clearing" else ScriptedRetriever()
+
     def _collect(self) -> TensorDictBase:
         """One batch; when a Ray worker dies the collector is rebuilt and the iteration repeated
         (every iteration is seeded afresh, so the repeat gives the batch the lost one would have)."""
