@@ -26,6 +26,13 @@ def _gl_available() -> bool:
     return ok
 
 
+# what the demo says of the privileged methods it can show
+PRIVILEGED_LABELS = {
+    "scripted": "privileged scripted retriever (reads the true target pose)",
+    "clearing": "privileged clearing retriever (reads the true state, carries blockers aside)",
+}
+
+
 def run_demo(args: argparse.Namespace) -> int:
     import numpy as np
 
@@ -36,18 +43,14 @@ def run_demo(args: argparse.Namespace) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     method = args.method
-    if method not in ("scripted", "clearing") and not args.weights and "occnet" not in available():
+    if method not in PRIVILEGED_LABELS and not args.weights and "occnet" not in available():
         print("no shipped network in this installation: showing the privileged scripted retriever instead")
         method = "scripted"
     primers = []
-    if method == "scripted":
-        from occrl.baselines import ScriptedRetriever
+    if method in PRIVILEGED_LABELS:
+        from occrl.eval.methods import make_method
 
-        policy, label = ScriptedRetriever(), "privileged scripted retriever (reads the true target pose)"
-    elif method == "clearing":
-        from occrl.baselines import ClearingRetriever
-
-        policy, label = ClearingRetriever(), "privileged clearing retriever (reads the true state, carries blockers aside)"
+        policy, label = make_method(method).policy, PRIVILEGED_LABELS[method]
     else:
         from occrl.planners import HybridPlanner
         from occrl.modules.weights import load_weights
