@@ -108,8 +108,8 @@ def main() -> None:
     print(
         f"4x4 batched {1e3 * tb / len(obs):.1f} ms vs sequential {1e3 * ts / len(obs):.1f} ms per decision: {ts / tb:.1f}x faster; same action in {same}/{len(obs)} decisions"
     )
-    if args.inference == "torch":  # the floor and the profile are of the torch path
-        floor(net, obs)
+    floor(net, obs, inference=args.inference)
+    if args.inference == "torch":  # the profile compares with the sequential reference, which runs torch
         breakdown(net, obs)
 
 
@@ -165,11 +165,11 @@ def worlds_together(net, obs, worlds: int = 8, rounds: int = 3, inference: str =
     )
 
 
-def floor(net, obs) -> None:
+def floor(net, obs, inference: str = "torch") -> None:
     """How close a 4x4 decision is to the floor of its work: the roll-outs' physics steps
     (``ShelfWorld.step``; of it, Chipmunk's own ``cpSpaceStep``) plus the batched network calls
-    (``NetworkStepper.step``), timed inside unprofiled decisions of one planner; everything else
-    (rendering, world building, glue) is above the floor."""
+    (``NetworkStepper.step`` on the ``inference`` backend), timed inside unprofiled decisions of
+    one planner; everything else (rendering, world building, glue) is above the floor."""
     import occrl.envs.pymunk2d.world as world_module
     from occrl.envs.pymunk2d.world import ShelfWorld
     from occrl.planners.rhp import NetworkStepper
@@ -200,7 +200,7 @@ def floor(net, obs) -> None:
             setattr(cls, name, timed(part, saved[part]))
         world_module._cp = TimedChipmunk()
         total = 0.0
-        planner = HybridPlanner(net, m=4, h=4, seed=0)
+        planner = HybridPlanner(net, m=4, h=4, seed=0, inference=inference)
         for td in obs:
             planner(td.clone())
             total += planner.decisions[-1].seconds
@@ -211,7 +211,7 @@ def floor(net, obs) -> None:
     n = len(obs)
     low = spent["physics"] + spent["network"]
     print(
-        f"4x4 floor: physics {1e3 * spent['physics'] / n:.1f} ms (of it the engine's own steps {1e3 * spent['engine'] / n:.1f} ms) "
+        f"4x4 floor ({inference}): physics {1e3 * spent['physics'] / n:.1f} ms (of it the engine's own steps {1e3 * spent['engine'] / n:.1f} ms) "
         f"+ network {1e3 * spent['network'] / n:.1f} ms = {1e3 * low / n:.1f} ms of a {1e3 * total / n:.1f} ms decision; "
         f"{100 * (1 - low / total):.0f} % above the floor ({100 * (1 - (spent['engine'] + spent['network']) / total):.0f} % above "
         "the engine + network)"
