@@ -348,7 +348,8 @@ def run_export(args: argparse.Namespace) -> int:
         "weights_file": weights_path.name,
         "iterations": last["iteration"],
         "frames": last["frames"],
-        "cpu_hours": round(last["train_hours"] * 2, 2),  # wall hours x 2 cores
+        # CPU time of the run's process tree (occrl.training.cpu_time); None for runs from before it was measured
+        "cpu_hours": round(last["cpu_hours"], 2) if "cpu_hours" in last else None,
         "wall_hours": round(last["train_hours"], 2),
         "stage_reached": stage,
         "phase": last["phase"],

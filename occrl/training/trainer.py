@@ -38,6 +38,7 @@ from occrl.modules.weights import load_weights, save_weights
 from occrl.training.checkpoint import load_checkpoint, save_checkpoint
 from occrl.training.collection import TrainingCollector
 from occrl.training.config import SETTING_CHOICES, TrainConfig, training_device
+from occrl.training.cpu_time import tree_cpu_seconds
 from occrl.training.curriculum import Curriculum
 from occrl.training.dagger import (
     ExpertMixPolicy,
@@ -182,6 +183,7 @@ class Trainer:
         self.saved_iteration: int | None = None  # the iteration of the checkpoint on disk (None: none yet)
         self.frames = 0
         self.train_seconds = 0.0
+        self.cpu_seconds: float | None = 0.0  # CPU of the run's process tree (tree_cpu_seconds); None: not measured from the start
         # the hybrid-acting teacher plans on the live network; planners are reseeded every iteration
         if config.imitation_teacher == "hybrid-acting":
             self.expert = HybridPlanner(self.acting_net, m=4, h=4, seed=self.seed, inference=config.teacher_inference, batch_worlds=True)
@@ -202,6 +204,7 @@ class Trainer:
             if st["seed"] != self.seed:
                 raise ValueError(f"{ckpt} was written with seed {st['seed']}, not {self.seed}")
             self.iteration, self.frames, self.train_seconds = st["iteration"], st["frames"], st["train_seconds"]
+            self.cpu_seconds = st.get("cpu_seconds")  # checkpoints before it was measured: unknown
             self.saved_iteration = self.iteration
             self.curriculum.load_state_dict(st["curriculum"])
             if self.iteration < config.imitation_iters and config.imitation_updates > 0:
@@ -378,7 +381,7 @@ class Trainer:
         consistent = True
         try:
             while self.iteration < target and (max_seconds is None or time.time() - start_wall < max_seconds):
-                t0 = time.time()
+                t0, cpu0 = time.time(), tree_cpu_seconds()
                 phase = self._phase()
                 beta = self._beta()
                 data = self._collect()
@@ -416,6 +419,8 @@ class Trainer:
                     if hybrid_rate > c.promote_threshold:
                         promoted = self.curriculum.promote()
                 self.train_seconds += time.time() - t0
+                if self.cpu_seconds is not None:
+                    self.cpu_seconds += tree_cpu_seconds() - cpu0
                 if phase == "imitation" and self.iteration == c.imitation_iters:
                     save_weights(self.run_dir / WARM_START_WEIGHTS, self.net, {"train_preset": c.preset, **self.state()})
                 summary = {
@@ -434,6 +439,8 @@ class Trainer:
                     "train_hours": self.train_seconds / 3600,
                     **losses,
                 }
+                if self.cpu_seconds is not None:
+                    summary["cpu_hours"] = self.cpu_seconds / 3600
                 if hybrid_rate is not None:
                     summary["hybrid_success_rate"] = hybrid_rate
                 if isinstance(self.expert, RetrievalTakeover):  # the share of frames the retriever acted in
@@ -479,6 +486,7 @@ class Trainer:
             "iteration": self.iteration,
             "frames": self.frames,
             "train_seconds": self.train_seconds,
+            "cpu_seconds": self.cpu_seconds,
             "seed": self.seed,
             "curriculum": self.curriculum.state_dict(),
             "init_weights": self.init_weights,

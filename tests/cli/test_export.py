@@ -34,6 +34,8 @@ def test_export_the_warm_start_weights_with_their_own_card(tmp_path):
     )
     card = json.loads((dest / "model_cards.json").read_text())["occnet"]
     assert card["iterations"] == 2 and card["phase"] == "imitation" and card["weights_file"] == "weights_warmstart.pt"
+    rows = [json.loads(line) for line in (run / "metrics.jsonl").read_text().splitlines()]
+    assert card["cpu_hours"] == round(rows[1]["cpu_hours"], 2)  # the run's measured CPU time at the exported iteration
     shipped, warm = load_weights(dest / "occnet.pt").state_dict(), load_weights(run / "weights_warmstart.pt").state_dict()
     assert all(torch.equal(shipped[k], warm[k]) for k in warm)
     assert main(["export", "--run-dir", str(run), "--name", "occnet", "--preset", "tiny", "--dest", str(dest)]) == 0

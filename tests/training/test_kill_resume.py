@@ -42,7 +42,7 @@ sys.exit(main(argv))
 """
 
 ITERATIONS = 6
-TIMING = ("fps", "collect_fps", "train_hours")
+TIMING = ("fps", "collect_fps", "train_hours", "cpu_hours")
 
 
 def _train(run: Path, mode: str = "plain", kill_after: float | None = None) -> int:
