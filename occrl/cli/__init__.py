@@ -94,7 +94,12 @@ def make_parser() -> argparse.ArgumentParser:
         default="pymunk",
         help="execution env: the 2D pymunk world or the 3D MuJoCo shelf (planners still plan in pymunk)",
     )
-    e.add_argument("--noise", type=NOISE, default=0.0)
+    e.add_argument(
+        "--noise",
+        type=NOISE,
+        default=0.0,
+        help="physics noise of the tasks; with --sweep: the clutter sweep alone, at this noise (use its own --out folder)",
+    )
     e.add_argument("--tasks", type=COUNT, default=200, help="tasks per point (the paper uses 300 for sweeps)")
     e.add_argument("--seed", type=SEED, default=10_000_000, help="first task seed (held-out range by default)")
     e.add_argument("--batch", type=COUNT, default=16, help="worlds stepped together (policies; planners use 1)")

@@ -213,6 +213,8 @@ def run_eval(args: argparse.Namespace) -> int:
                 ray_address=args.ray_address,
                 chunk=args.chunk,
                 films=True,
+                sweeps=("clutter",) if args.noise else ("clutter", "noise"),
+                clutter_noise=args.noise,
             )
         finally:
             _stop_ray_if_used(args)

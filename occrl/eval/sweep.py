@@ -2,7 +2,8 @@
 
 Two sweeps, the same task seeds for every method:
 
-* clutter: 1 to 10 objects, noise 0;
+* clutter: 1 to 10 objects, noise 0 (or ``clutter_noise``: the same sweep on noisy physics, in
+  its own output folder);
 * noise: 0.0 to 0.25 by 0.05, with a random number of objects (1 to 10, drawn from the task seed).
 
 Each finished point (method, sweep, value) is cached as JSON under ``out/points/``, so an
@@ -54,10 +55,10 @@ def _point_path(out: Path, method: str, sweep: str, value: float) -> Path:
 
 
 def _run_point(
-    method: str, sweep: str, value: float, seeds: list[int], batch: int, workers: int, weights, progress, **backend
+    method: str, sweep: str, value: float, seeds: list[int], batch: int, workers: int, weights, progress, clutter_noise: float, **backend
 ) -> list[EpisodeResult]:
     if sweep == "clutter":
-        return run_tasks(method, SCENE_STAGE, seeds, 0.0, int(value), batch, workers, weights, progress, **backend)
+        return run_tasks(method, SCENE_STAGE, seeds, clutter_noise, int(value), batch, workers, weights, progress, **backend)
     # noise sweep: a random object count per task; group tasks by count so scenes are sampled alike
     results: dict[int, EpisodeResult] = {}
     by_count: dict[int, list[int]] = {}
@@ -84,6 +85,7 @@ def run_sweep(
     ray_address: str | None = None,
     chunk: int | None = None,
     films: bool = False,
+    clutter_noise: float = 0.0,
 ) -> Path:
     """Run (or resume, or extend) the sweep; returns the output folder.
 
@@ -93,7 +95,8 @@ def run_sweep(
     than asked is extended with the missing ones (a point run with 50 tasks grows to 300 by
     running seeds 51-300 only). ``backend="ray"`` spreads each point's tasks over Ray actors
     (see :func:`occrl.eval.runner.run_tasks`). ``films=True`` ends with :func:`sweep_films` for
-    hybrid 4x4 (or the first method).
+    hybrid 4x4 (or the first method). ``clutter_noise``: the physics noise of the clutter sweep's
+    tasks (the papers do not say theirs; 0 by default); a folder holds clutter points of one noise.
 
     Examples:
         >>> import os, tempfile
@@ -126,13 +129,27 @@ def run_sweep(
                 raise ValueError(
                     f"{path} holds task seeds from {min(done)}, not from {first_seed}: use another --out folder for other task seeds"
                 )
+            noise = clutter_noise if sweep == "clutter" else value
+            cached_noise = _point_noise(json.loads(path.read_text())) if done else noise
+            if cached_noise != noise:
+                raise ValueError(f"{path} holds tasks at noise {cached_noise:g}, not {noise:g}: use another --out folder for another noise")
             missing = [s for s in seeds if s not in done]
             if not missing:
                 continue
             b = 1 if method in PLANNERS else batch
             bar.set_postfix_str(f"{method} {sweep}={value:g}, tasks up to {upto}")
             for r in _run_point(
-                method, sweep, value, missing, b, workers, weights, bar if progress else False, backend=backend, ray_address=ray_address
+                method,
+                sweep,
+                value,
+                missing,
+                b,
+                workers,
+                weights,
+                bar if progress else False,
+                clutter_noise,
+                backend=backend,
+                ray_address=ray_address,
             ):
                 done[r.seed] = r
             results = [done[s] for s in sorted(done)]
@@ -140,6 +157,7 @@ def run_sweep(
                 "method": method,
                 "sweep": sweep,
                 "value": value,
+                "noise": noise,
                 **summarize(results),
                 "episodes": [r.to_dict() for r in results],
             }
@@ -151,6 +169,12 @@ def run_sweep(
     if films:
         sweep_films(out, "hybrid-4x4" if "hybrid-4x4" in methods else methods[0], weights=weights)
     return out
+
+
+def _point_noise(point: dict) -> float:
+    """The physics noise of a point's tasks (points from before it was recorded: clutter points
+    ran at noise 0, noise points at their value)."""
+    return float(point.get("noise", point["value"] if point["sweep"] == "noise" else 0.0))
 
 
 def _cached_episodes(path: Path) -> dict[int, EpisodeResult]:
@@ -188,6 +212,7 @@ def summarize_sweep(out: str | Path) -> list[dict]:
     for p in _points(out):
         rows.append(
             {k: p[k] for k in ("method", "sweep", "value", "tasks", "successes", "success_rate", "dropped", "mean_actions", "mean_seconds")}
+            | {"noise": _point_noise(p)}
             | {"ci95_low": p["success_ci95"][0], "ci95_high": p["success_ci95"][1]}
         )
     rows.sort(key=lambda r: (r["sweep"], r["method"], r["value"]))
@@ -222,8 +247,9 @@ def sweep_tables(rows: list[dict]) -> str:
         cell = {(r["method"], r["value"]): r for r in mine}
         tasks = sorted({r["tasks"] for r in mine})
         per_point = f"{tasks[0]}" if len(tasks) == 1 else f"{tasks[0]}-{tasks[-1]}"
+        noisy = "".join(f" at noise {n:g}" for n in sorted({r.get("noise", 0.0) for r in mine} - {0.0})) if sweep == "clutter" else ""
         lines = [
-            f"success (%) against {sweep} ({per_point} tasks per point):",
+            f"success (%) against {sweep}{noisy} ({per_point} tasks per point):",
             "| method | " + " | ".join(f"{v:g}" for v in values) + " |",
             "| --- |" + " --- |" * len(values),
         ]
@@ -268,7 +294,8 @@ def plot_sweep(out: str | Path) -> Path:
             axes[i, 0].errorbar(x, y, yerr=err, marker="o", capsize=3, label=method)
             axes[i, 1].plot(x, [r["mean_seconds"] for r in pts], marker="o", label=method)
             axes[i, 2].plot(x, [r["mean_actions"] for r in pts], marker="o", label=method)
-        xlabel = "number of objects" if sweep == "clutter" else "noise level"
+        clutter_noise = sorted({r["noise"] for r in rows if r["sweep"] == "clutter"} - {0.0})
+        xlabel = "noise level" if sweep == "noise" else "number of objects" + "".join(f" (noise {n:g})" for n in clutter_noise)
         for ax, ylabel in zip(axes[i], ("success rate", "time per task (s)", "actions per task")):
             ax.set_xlabel(xlabel)
             ax.set_ylabel(ylabel)
@@ -316,7 +343,7 @@ def sweep_films(out: str | Path, method: str, solved: int = 3, failed: int = 1, 
     paths = []
     for e in wins + losses:
         seed = int(e["seed"])
-        env = seeded_task_env(m.policy, task_scenes(SCENE_STAGE, [seed], int(point["value"])), [seed], 0.0, m.primers)
+        env = seeded_task_env(m.policy, task_scenes(SCENE_STAGE, [seed], int(point["value"])), [seed], _point_noise(point), m.primers)
         decisions = getattr(m.policy, "decisions", None)
         if decisions is not None:
             decisions.clear()

@@ -83,3 +83,38 @@ def test_wilson_interval_always_holds_the_rate():
         for k in range(n + 1):
             lo, hi = wilson_interval(k, n)
             assert 0.0 <= lo <= k / n <= hi <= 1.0, (k, n, lo, hi)
+
+
+def test_a_clutter_sweep_on_noisy_physics_runs_its_tasks_at_that_noise_and_keeps_to_its_folder(tmp_path):
+    from occrl.eval.sweep import summarize_sweep, sweep_films, sweep_tables
+
+    values = {"clutter": [3.0]}
+    out = run_sweep(["scripted"], tmp_path, tasks=3, first_seed=700, sweeps=("clutter",), values=values, progress=False, clutter_noise=0.15)
+    point = json.loads((out / "points" / "scripted__clutter__3.json").read_text())
+    direct = run_tasks("scripted", 2, [700, 701, 702], 0.15, 3, progress=False)  # the sweep's scene stage is 2
+    assert point["noise"] == 0.15
+    assert [(e["seed"], e["success"], e["actions"]) for e in point["episodes"]] == [(r.seed, r.success, r.actions) for r in direct]
+    assert sweep_tables(summarize_sweep(out)).startswith("success (%) against clutter at noise 0.15 (3 tasks per point):")
+    solved = sum(e["success"] for e in point["episodes"])
+    sweep_films(out, "scripted", solved=solved, failed=3 - solved)  # replays at the point's noise; raises if an episode differs
+    with pytest.raises(ValueError, match="holds tasks at noise 0.15, not 0: use another --out folder"):
+        run_sweep(["scripted"], tmp_path, tasks=4, first_seed=700, sweeps=("clutter",), values=values, progress=False)
+
+
+def test_the_command_line_runs_the_clutter_sweep_alone_at_the_noise_it_is_given(tmp_path, monkeypatch):
+    import occrl.eval.sweep as sweep_module
+    from occrl.cli import main
+
+    calls = []
+
+    def record(*args, **kwargs):  # the arguments only: the sweep itself is tested above
+        calls.append(kwargs)
+        out = tmp_path / "out"
+        (out / "points").mkdir(parents=True, exist_ok=True)
+        (out / "results.json").write_text("[]")
+        return out
+
+    monkeypatch.setattr(sweep_module, "run_sweep", record)
+    assert main(["eval", "--sweep", "--methods", "scripted", "--noise", "0.15", "--out", str(tmp_path / "out"), "--no-progress"]) == 0
+    assert main(["eval", "--sweep", "--methods", "scripted", "--out", str(tmp_path / "out"), "--no-progress"]) == 0
+    assert [(c["sweeps"], c["clutter_noise"]) for c in calls] == [(("clutter",), 0.15), (("clutter", "noise"), 0.0)]
