@@ -4,7 +4,8 @@ A run's wall time says little about the CPU it used: a single-process run on one
 core, a run with collector workers uses several. :func:`tree_cpu_seconds` adds up the CPU time
 (user + system) of this process (every thread), of its children that have ended and been waited
 for, and, on Linux, of its live descendants read from ``/proc`` (collector workers, evaluation
-workers). Ray actors are not descendants (Ray's own processes start them) and are not counted.
+workers, and a local Ray runtime that the run started: its raylet and actors descend from it).
+The processes of a Ray cluster the run joined (``--ray-address``) are not counted.
 """
 
 from __future__ import annotations
