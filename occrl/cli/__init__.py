@@ -84,7 +84,7 @@ def make_parser() -> argparse.ArgumentParser:
         help="with --sweep: rounds of this many tasks (every point gets them before any gets more), so an "
         "interrupted sweep leaves a complete figure; cached points are extended, never recomputed",
     )
-    e.add_argument("--stage", type=int, default=1, choices=[1, 2, 3])
+    e.add_argument("--stage", type=int, default=None, choices=[1, 2, 3], help="the tasks' curriculum stage (default 1)")
     e.add_argument(
         "--objects", default=None, help="object count per task: a number, or a range like 1-10 (each task draws its count from its seed)"
     )

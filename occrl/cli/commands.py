@@ -194,6 +194,19 @@ def run_eval(args: argparse.Namespace) -> int:
     if args.sweep:
         from occrl.eval.sweep import run_sweep
 
+        # the sweeps fix these themselves (stage-2 scenes, their object counts, the 2D world)
+        ignored = [
+            flag for flag, given in (("--method", args.method), ("--stage", args.stage), ("--objects", args.objects)) if given is not None
+        ]
+        ignored += ["--world mujoco"] if args.world != "pymunk" else []
+        if ignored:
+            print(
+                f"--sweep runs the papers' sweeps in the 2D world on stage-2 scenes with their own object counts "
+                f"(methods by --methods, clutter-sweep noise by --noise); drop {', '.join(ignored)}",
+                file=sys.stderr,
+            )
+            return 2
+
         methods = args.methods.split(",") if args.methods else [m for m in METHODS if m not in PRIVILEGED]
         unknown = [m for m in methods if m not in METHODS]
         if unknown:
@@ -226,6 +239,7 @@ def run_eval(args: argparse.Namespace) -> int:
     if not args.method:
         print("give --method (or --sweep)", file=sys.stderr)
         return 2
+    stage = 1 if args.stage is None else args.stage
 
     if args.method not in METHODS:
         print(f"unknown method {args.method!r}; available: {METHODS}", file=sys.stderr)
@@ -238,7 +252,7 @@ def run_eval(args: argparse.Namespace) -> int:
     try:
         results = run_tasks(
             args.method,
-            args.stage,
+            stage,
             seeds,
             args.noise,
             objects,
@@ -257,7 +271,7 @@ def run_eval(args: argparse.Namespace) -> int:
     summary = {
         "method": args.method,
         "network": args.weights or network_of(args.method),
-        "stage": args.stage,
+        "stage": stage,
         "objects": args.objects,
         "noise": args.noise,
         "world": args.world,
@@ -270,7 +284,7 @@ def run_eval(args: argparse.Namespace) -> int:
     lo, hi = summary["success_ci95"]
     if args.format == "text":
         print(
-            f"{args.method}: {args.world} world, stage {args.stage}, objects {args.objects or 'of the stage'}, noise {args.noise}, {summary['tasks']} tasks: success {summary['success_rate']:.1%} "
+            f"{args.method}: {args.world} world, stage {stage}, objects {args.objects or 'of the stage'}, noise {args.noise}, {summary['tasks']} tasks: success {summary['success_rate']:.1%} "
             f"(95% CI {lo:.1%}-{hi:.1%}), dropped {summary['dropped']}, mean actions {summary['mean_actions']:.1f}, "
             f"mean time {summary['mean_seconds']:.2f} s"
         )

@@ -210,3 +210,18 @@ def test_train_options_reach_the_config(tmp_path, capsys):
     assert cfg["lr"] == 0.002 and cfg["heatmap"] is False and cfg["num_envs"] == 2 and cfg["preset"] == "tiny"
     assert main(["train", "--preset", "tiny", "--run-dir", str(tmp_path / "s"), "--gamma", "0"]) == 2
     assert "--gamma: 0 is out of range; allowed: a number in (0, 1]" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    "flags, named",
+    [
+        (["--world", "mujoco"], "--world mujoco"),
+        (["--stage", "3"], "--stage"),
+        (["--objects", "5"], "--objects"),
+        (["--method", "greedy"], "--method"),
+    ],
+)
+def test_a_sweep_refuses_the_flags_it_would_ignore(tmp_path, capsys, flags, named):
+    assert main(["eval", "--sweep", "--methods", "scripted", "--out", str(tmp_path / "out"), *flags]) == 2
+    assert f"drop {named}" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()  # nothing run, nothing written
