@@ -21,7 +21,7 @@ from PIL import Image, ImageDraw
 
 from occrl.envs import world_constants as C
 from occrl.envs.visibility import pad_polygons, angular_extents
-from occrl.envs.shelf_geometry import SHELF_WALLS, gripper_polygons
+from occrl.envs.shelf_geometry import SHELF_WALLS, gripper_polygons_batch
 
 __all__ = [
     "Canvas",
@@ -123,10 +123,10 @@ def _pillow_pixels(pixels: np.ndarray, row0: np.ndarray | None = None) -> np.nda
     return ints
 
 
-def _fill_polygons(draw: ImageDraw.ImageDraw, pillow_polys: np.ndarray, label: int) -> None:
-    """Fill (P, V, 2) polygons given as Pillow's integer coordinates."""
-    for flat in pillow_polys.reshape(len(pillow_polys), -1).tolist():
-        draw.polygon(flat, fill=label)
+def _xy_lists(pillow_ints: np.ndarray) -> list:
+    """(..., V, 2) integer coordinates as Pillow's flat lists (x0, y0, x1, y1, ...), one list per
+    polygon, in one conversion."""
+    return pillow_ints.reshape(*pillow_ints.shape[:-2], pillow_ints.shape[-2] * 2).tolist()
 
 
 def render_labels(
@@ -176,8 +176,11 @@ def render_labels_batch(
         >>> bool((both[0] == render_labels(poses[0], 0.085, [box], [True])).all()), both.shape
         (True, (2, 244, 250))
     """
-    full = [(0, canvas.shape[0], canvas.shape[1])] * len(np.asarray(gripper_poses).reshape(-1, 3))
-    return np.stack(list(_render_regions(gripper_poses, openings, detections, canvas, fov, full)))
+    h, w = canvas.shape
+    full = [(0, h, w)] * len(np.asarray(gripper_poses).reshape(-1, 3))
+    return np.frombuffer(b"".join(_render_regions(gripper_poses, openings, detections, canvas, fov, full)), dtype=np.uint8).reshape(
+        -1, h, w
+    )
 
 
 def render_labels_at(
@@ -216,16 +219,18 @@ def render_labels_at(
     row1 = np.where(seen, np.where(valid, row, -1).max(axis=1) + 1, 1)
     col1 = np.where(seen, np.where(valid, col, -1).max(axis=1) + 1, 1)
     regions = list(zip(row0.tolist(), row1.tolist(), col1.tolist()))
-    out = np.empty(valid.shape, dtype=np.uint8)
-    for b, labels in enumerate(_render_regions(gripper_poses, openings, detections, canvas, fov, regions)):
-        v = valid[b]  # points off the canvas read pixel (0, 0) and are replaced by ``outside``
-        out[b] = np.where(v, labels[np.where(v, row[b] - row0[b], 0), np.where(v, col[b], 0)], outside)
+    # every world's region laid end to end, row by row: one gather for the points of all worlds
+    # (points off the canvas read the first pixel and are replaced by ``outside``)
+    flat = np.frombuffer(b"".join(_render_regions(gripper_poses, openings, detections, canvas, fov, regions)), dtype=np.uint8)
+    start = np.concatenate(([0], np.cumsum((row1 - row0) * col1)[:-1]))
+    index = (row - row0[:, None]) * col1[:, None] + col + start[:, None]
+    out = np.where(valid, flat[np.where(valid, index, 0)], np.uint8(outside))
     return out.reshape(points.shape[:-1])
 
 
 def _render_regions(gripper_poses, openings, detections, canvas: Canvas, fov: float, regions):
     """Each world's label map over its region (row0, row1, col1) of the canvas: rows row0 to
-    row1 - 1, columns 0 to col1 - 1 (uint8, row1 - row0 by col1)."""
+    row1 - 1, columns 0 to col1 - 1, as raw uint8 bytes (row1 - row0 rows of col1)."""
     poses = np.asarray(gripper_poses, dtype=float).reshape(-1, 3)
     openings = np.asarray(openings, dtype=float).reshape(-1)
     _, _, walls_padded = _static_pixels(canvas)
@@ -248,13 +253,12 @@ def _render_regions(gripper_poses, openings, detections, canvas: Canvas, fov: fl
     shadow_pixels = canvas.to_pixels(np.stack([v_lo, v_hi, f_hi, f_lo], 2))
     arc = _FOV_ARC[fov] if fov in _FOV_ARC else _fov_arc(fov)
     # outside the field of view: the camera, then an arc around the back
+    # (each world's rotation from math.cos / math.sin and one stacked matmul: the values of world by world)
+    axes = [th + math.pi / 2 for th in poses[:, 2].tolist()]
+    rotations = np.array([[[math.cos(a), math.sin(a)], [-math.sin(a), math.cos(a)]] for a in axes]).reshape(-1, 2, 2)
     fov_out = np.empty((len(poses), 1 + len(arc), 2))
-    for b in range(len(poses)):
-        cx, cy, th = (float(v) for v in poses[b])
-        axis = th + math.pi / 2
-        c, s = math.cos(axis), math.sin(axis)
-        fov_out[b, 0] = cx, cy
-        fov_out[b, 1:] = np.array([cx, cy]) + _FAR * (arc @ np.array([[c, s], [-s, c]]))
+    fov_out[:, 0] = poses[:, :2]
+    fov_out[:, 1:] = poses[:, None, :2] + _FAR * np.matmul(arc, rotations)
     # Pillow's integer coordinates of every world's polygons, a few calls for all worlds
     # (elementwise arithmetic: the same values as world by world)
     row0s = np.array([region[0] for region in regions], dtype=np.int64)
@@ -263,26 +267,33 @@ def _render_regions(gripper_poses, openings, detections, canvas: Canvas, fov: fl
     object_ints = _pillow_pixels(canvas.to_pixels(padded[:, :most]), row0s)
     gripper_ints = _pillow_pixels(canvas.to_pixels(_gripper_world_polygons(poses, openings)), row0s)
     walls, edge, _ = _static_pixels(canvas)
-    walls_ints, edge_ints = _pillow_pixels(walls), _pillow_pixels(edge)
-    casters = np.arange(padded.shape[1])
+    shifts = np.stack([np.zeros_like(row0s), row0s], -1)  # each world's rows start at its region
+    walls_ints = _pillow_pixels(walls)[None] - shifts[:, None, None]
+    edge_ints = _pillow_pixels(edge)[None] - shifts[:, None]
+    # every world's coordinates as Python lists in one conversion each (Pillow takes lists)
+    fov_xy, shadow_xy, object_xy, gripper_xy, walls_xy, edge_xy = map(
+        _xy_lists, (fov_ints, shadow_ints, object_ints, gripper_ints, walls_ints, edge_ints)
+    )
+    casts = (~inside).tolist()
+    P = padded.shape[1]
     for b, (polys, is_target) in enumerate(detections):
         row0, row1, col1 = regions[b]
         img = Image.new("L", (col1, row1 - row0), LABELS["observable"])
         draw = ImageDraw.Draw(img)
-        draw.polygon(fov_ints[b].ravel().tolist(), fill=LABELS["occluded"])
-        cast = np.concatenate((casters[: counts[b]], casters[most:]))  # this world's objects, then the walls
-        _fill_polygons(draw, shadow_ints[b, cast][~inside[b, cast]], LABELS["occluded"])
-        shift = np.array([0, row0])
-        _draw_shelf_and_bodies(
-            draw, walls_ints - shift, edge_ints - shift, object_ints[b, : counts[b]], [len(p) for p in polys], is_target, gripper_ints[b]
-        )
-        yield np.frombuffer(img.tobytes(), dtype=np.uint8).reshape(row1 - row0, col1)
+        fill = draw.draw.draw_polygon  # ImageDraw.polygon(xy, fill=label) on an "L" image, without its ink lookup
+        fill(fov_xy[b], LABELS["occluded"], 1)
+        for k in [*range(counts[b]), *range(most, P)]:  # this world's objects, then the walls
+            if casts[b][k]:
+                fill(shadow_xy[b][k], LABELS["occluded"], 1)
+        objects = [xy[: 2 * len(p)] for xy, p in zip(object_xy[b], polys)]
+        _draw_shelf_and_bodies(draw, walls_xy[b], edge_xy[b], objects, is_target, gripper_xy[b])
+        yield img.tobytes()
 
 
 def _gripper_world_polygons(poses: np.ndarray, openings: np.ndarray) -> np.ndarray:
     """(B, parts, 4, 2) shelf-frame gripper outlines (:func:`gripper_polygons`) at poses (B, 3)
     with openings (B,); :func:`~occrl.envs.geometry.transform_points` world by world, the same values."""
-    parts = np.stack([_GRIPPER_PARTS if o == C.GRIPPER_STROKE else np.stack(gripper_polygons(o)) for o in openings.tolist()])
+    parts = gripper_polygons_batch(openings)
     cos_sin = np.array([(math.cos(th), math.sin(th)) for th in poses[:, 2].tolist()]).reshape(-1, 2, 1, 1)
     c, s = cos_sin[:, 0], cos_sin[:, 1]
     x, y = poses[:, 0, None, None], poses[:, 1, None, None]
@@ -292,15 +303,18 @@ def _gripper_world_polygons(poses: np.ndarray, openings: np.ndarray) -> np.ndarr
     return out
 
 
-def _draw_shelf_and_bodies(draw, walls_ints, edge_ints, object_ints: np.ndarray, counts, is_target, gripper_ints) -> None:
-    """Walls, front edge, objects (padded polygons, ``counts`` real vertices) and the gripper, in
-    that order, all as Pillow's integer coordinates: what both the abstract observation and the
+def _draw_shelf_and_bodies(draw: ImageDraw.ImageDraw, walls: list, edge: list, objects: list, is_target, gripper: list) -> None:
+    """Walls, front edge, objects and the gripper's parts, in that order, each a flat list of
+    Pillow's integer coordinates (x0, y0, x1, y1, ...): what both the abstract observation and the
     true top-down view draw last."""
-    _fill_polygons(draw, walls_ints, LABELS["wall"])
-    draw.line(edge_ints.ravel().tolist(), fill=LABELS["edge"], width=2)
-    for flat, count, tgt in zip(object_ints.reshape(len(object_ints), 2 * C.MAX_VERTICES).tolist(), counts, is_target):
-        draw.polygon(flat[: 2 * count], fill=LABELS["target"] if tgt else LABELS["clutter"])
-    _fill_polygons(draw, gripper_ints, LABELS["gripper"])
+    fill = draw.draw.draw_polygon  # ImageDraw.polygon(xy, fill=label) on an "L" image, without its ink lookup
+    for xy in walls:
+        fill(xy, LABELS["wall"], 1)
+    draw.line(edge, fill=LABELS["edge"], width=2)
+    for xy, tgt in zip(objects, is_target):
+        fill(xy, LABELS["target"] if tgt else LABELS["clutter"], 1)
+    for xy in gripper:
+        fill(xy, LABELS["gripper"], 1)
 
 
 def _fov_arc(fov: float) -> np.ndarray:
@@ -312,7 +326,6 @@ def _fov_arc(fov: float) -> np.ndarray:
 
 
 _FOV_ARC: dict[float, np.ndarray] = {}
-_GRIPPER_PARTS = np.stack(gripper_polygons(C.GRIPPER_STROKE))
 
 
 _STATIC_CACHE: dict[Canvas, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
@@ -349,8 +362,11 @@ def render_true_scene(
     padded = pad_polygons(object_polygons, C.MAX_VERTICES) if len(object_polygons) else np.zeros((0, C.MAX_VERTICES, 2))
     walls, edge, _ = _static_pixels(canvas)
     gripper = _gripper_world_polygons(np.asarray(gripper_pose, dtype=float).reshape(1, 3), np.array([float(opening)]))[0]
-    ints = [_pillow_pixels(px) for px in (walls, edge, canvas.to_pixels(padded), canvas.to_pixels(gripper))]
-    _draw_shelf_and_bodies(ImageDraw.Draw(img), *ints[:3], [len(p) for p in object_polygons], is_target, ints[3])
+    walls_xy, edge_xy, object_xy, gripper_xy = (
+        _xy_lists(_pillow_pixels(px)) for px in (walls, edge[None], canvas.to_pixels(padded), canvas.to_pixels(gripper))
+    )
+    objects = [xy[: 2 * len(p)] for xy, p in zip(object_xy, object_polygons)]
+    _draw_shelf_and_bodies(ImageDraw.Draw(img), walls_xy, edge_xy[0], objects, is_target, gripper_xy)
     return np.asarray(img, dtype=np.uint8)
 
 

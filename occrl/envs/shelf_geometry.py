@@ -11,7 +11,7 @@ import numpy as np
 
 from occrl.envs import world_constants as C
 
-__all__ = ["gripper_polygons", "wall_polygons", "SHELF_WALLS", "beyond_walls", "inverse_pose"]
+__all__ = ["gripper_polygons", "gripper_polygons_batch", "wall_polygons", "SHELF_WALLS", "beyond_walls", "inverse_pose"]
 
 
 def gripper_polygons(opening: float) -> list[np.ndarray]:
@@ -23,13 +23,29 @@ def gripper_polygons(opening: float) -> list[np.ndarray]:
         >>> round(float(right[:, 0].min() - left[:, 0].max()), 3)  # the gap between the fingers
         0.085
     """
-    h = opening / 2.0
-    return [
-        _box(-C.PALM_WIDTH / 2, -C.PALM_DEPTH, C.PALM_WIDTH / 2, 0.0),
-        _box(-h - C.FINGER_WIDTH, 0.0, -h, C.FINGER_LENGTH),
-        _box(h, 0.0, h + C.FINGER_WIDTH, C.FINGER_LENGTH),
-        _box(-C.FOREARM_WIDTH / 2, -C.PALM_DEPTH - C.FOREARM_LENGTH, C.FOREARM_WIDTH / 2, -C.PALM_DEPTH),
-    ]
+    return [part.copy() for part in gripper_polygons_batch(np.array([opening], dtype=float))[0]]  # independent arrays, as before
+
+
+def gripper_polygons_batch(openings: np.ndarray) -> np.ndarray:
+    """:func:`gripper_polygons` of many openings (B,) at once: (B, 4 parts, 4 corners, 2).
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.shelf_geometry import gripper_polygons_batch
+        >>> parts = gripper_polygons_batch(np.array([0.085, 0.02]))
+        >>> parts.shape, (parts[:, 2, 0, 0] - parts[:, 1, 1, 0]).round(3).tolist()  # each gap between the fingers
+        ((2, 4, 4, 2), [0.085, 0.02])
+    """
+    h = np.asarray(openings, dtype=float).reshape(-1) / 2.0
+    parts = np.empty((len(h), 4, 4, 2))
+    parts[:, 0] = _box(-C.PALM_WIDTH / 2, -C.PALM_DEPTH, C.PALM_WIDTH / 2, 0.0)
+    parts[:, 1] = _box(0.0, 0.0, 0.0, C.FINGER_LENGTH)  # x filled in below
+    parts[:, 2] = parts[:, 1]
+    parts[:, 3] = _box(-C.FOREARM_WIDTH / 2, -C.PALM_DEPTH - C.FOREARM_LENGTH, C.FOREARM_WIDTH / 2, -C.PALM_DEPTH)
+    # the fingers' x: _box(-h - finger width, 0, -h, length) and _box(h, 0, h + finger width, length)
+    parts[:, 1, :, 0] = np.stack([-h - C.FINGER_WIDTH, -h, -h, -h - C.FINGER_WIDTH], 1)
+    parts[:, 2, :, 0] = np.stack([h, h + C.FINGER_WIDTH, h + C.FINGER_WIDTH, h], 1)
+    return parts
 
 
 def wall_polygons() -> list[np.ndarray]:
