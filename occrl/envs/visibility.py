@@ -168,18 +168,18 @@ def visible_fractions_batch(
     half = fov / 2
     clo, chi = np.maximum(lo, -half), np.minimum(hi, half)
     in_view = (chi > clo) & ~inside
-    # each camera's elementary intervals, padded to the longest with empty ones
-    mids_of, widths_of = [], []
-    for b in range(B):
-        cuts = np.sort(np.concatenate([[-half, half], clo[b][in_view[b]], chi[b][in_view[b]]]))
-        cuts = cuts[np.concatenate([[True], cuts[1:] != cuts[:-1]])]  # np.unique's own steps, without its overhead
-        cuts = cuts[(cuts >= -half) & (cuts <= half)]
-        mids_of.append(0.5 * (cuts[:-1] + cuts[1:]))
-        widths_of.append(cuts[1:] - cuts[:-1])
-    K = max(len(m) for m in mids_of) if B else 0
-    mids = np.zeros((B, K))
-    for b, m in enumerate(mids_of):
-        mids[b, : len(m)] = m
+    # each camera's elementary intervals: the in-view bearings where an object's extent starts or
+    # ends, sorted per camera (entries out of view pushed to the end as +inf), repeats dropped
+    cand = np.concatenate([np.broadcast_to([-half, half], (B, 2)), np.where(in_view, clo, np.inf), np.where(in_view, chi, np.inf)], 1)
+    cuts = np.sort(cand, axis=1)
+    keep = np.concatenate([np.ones((B, 1), bool), cuts[:, 1:] != cuts[:, :-1]], 1) & (cuts >= -half) & (cuts <= half)
+    cuts = np.take_along_axis(cuts, np.argsort(~keep, axis=1, kind="stable"), 1)  # each camera's cuts first, in order
+    intervals = keep.sum(1) - 1  # per camera
+    K = int(intervals.max()) if B else 0
+    used = np.arange(K) < intervals[:, None]  # (B, K): the camera's own intervals; the rest are padding
+    with np.errstate(invalid="ignore"):  # padding: inf - inf
+        mids = np.where(used, 0.5 * (cuts[:, :K] + cuts[:, 1 : K + 1]), 0.0)
+        widths = np.where(used, cuts[:, 1 : K + 1] - cuts[:, :K], 0.0)
     # one ray per interval against every polygon (Cyrus-Beck clipping, broadcast over cameras)
     cx, cy, th = cams[:, 0, None, None], cams[:, 1, None, None], cams[:, 2, None]
     phi = mids + th + math.pi / 2
@@ -192,27 +192,25 @@ def visible_fractions_batch(
     num = (h - nc)[:, None]
     with np.errstate(divide="ignore", invalid="ignore"):
         t = num / nd
-    lower = np.where(nd < 0, t, -np.inf).max(-1)
-    upper = np.where(nd > 0, t, np.inf).min(-1)
+    lower = np.max(t, axis=-1, where=nd < 0, initial=-np.inf)
+    upper = np.min(t, axis=-1, where=nd > 0, initial=np.inf)
     parallel_out = np.any((nd == 0) & (num < 0), axis=-1)
     hit = (lower <= upper) & (upper > 0) & ~parallel_out
-    dist = np.where(hit, np.maximum(lower, 0.0), np.inf)  # (B, K, P)
+    dist = np.where(hit & ~inside[:, None, :], np.maximum(lower, 0.0), np.inf)  # (B, K, P)
+    # each interval's owner is the nearest polygon its ray hits; an object sees the widths it owns
+    owner = dist.argmin(-1)
+    owned = used & np.isfinite(dist.min(-1))
+    # (bincount adds each bin's weights in array order: each camera's intervals in order, as one camera alone)
+    visible = np.bincount((owner + P * np.arange(B)[:, None])[owned], weights=widths[owned], minlength=B * P).reshape(B, P)
+    extent = hi - lo
+    frac = np.minimum(np.maximum(np.where(extent > 0, visible / np.maximum(extent, 1e-12), 0.0), 0.0), 1.0)
     out = []
     for b in range(B):
         n = counts[b]
-        if n == 0 or not in_view[b, :n].any():
-            out.append(np.zeros(n))
-            continue
-        d = dist[b, : len(mids_of[b])]
-        d[:, inside[b]] = np.inf
-        owner = d.argmin(-1)
-        owned = np.isfinite(d.min(-1))
-        visible = np.bincount(owner[owned], weights=widths_of[b][owned], minlength=P)[:n]
-        extent = (hi[b] - lo[b])[:n]
-        frac = np.minimum(np.maximum(np.where(extent > 0, visible / np.maximum(extent, 1e-12), 0.0), 0.0), 1.0)
+        f = frac[b, :n] if in_view[b, :n].any() else np.zeros(n)
         if hidden[b] is not None:
-            frac[hidden[b]] = 0.0
-        out.append(frac)
+            f[hidden[b]] = 0.0
+        out.append(f)
     return out
 
 
