@@ -23,11 +23,18 @@ def gripper_polygons(opening: float) -> list[np.ndarray]:
         >>> round(float(right[:, 0].min() - left[:, 0].max()), 3)  # the gap between the fingers
         0.085
     """
-    return [part.copy() for part in gripper_polygons_batch(np.array([opening], dtype=float))[0]]  # independent arrays, as before
+    h = opening / 2.0
+    return [
+        _box(-C.PALM_WIDTH / 2, -C.PALM_DEPTH, C.PALM_WIDTH / 2, 0.0),
+        _box(-h - C.FINGER_WIDTH, 0.0, -h, C.FINGER_LENGTH),
+        _box(h, 0.0, h + C.FINGER_WIDTH, C.FINGER_LENGTH),
+        _box(-C.FOREARM_WIDTH / 2, -C.PALM_DEPTH - C.FOREARM_LENGTH, C.FOREARM_WIDTH / 2, -C.PALM_DEPTH),
+    ]
 
 
 def gripper_polygons_batch(openings: np.ndarray) -> np.ndarray:
-    """:func:`gripper_polygons` of many openings (B,) at once: (B, 4 parts, 4 corners, 2).
+    """:func:`gripper_polygons` of many openings (B,) at once: (B, 4 parts, 4 corners, 2), the
+    same values (the closed outline's fingers moved by -h and +h: ``-h + (-w)`` is ``-h - w``).
 
     Examples:
         >>> import numpy as np
@@ -36,15 +43,10 @@ def gripper_polygons_batch(openings: np.ndarray) -> np.ndarray:
         >>> parts.shape, (parts[:, 2, 0, 0] - parts[:, 1, 1, 0]).round(3).tolist()  # each gap between the fingers
         ((2, 4, 4, 2), [0.085, 0.02])
     """
-    h = np.asarray(openings, dtype=float).reshape(-1) / 2.0
-    parts = np.empty((len(h), 4, 4, 2))
-    parts[:, 0] = _box(-C.PALM_WIDTH / 2, -C.PALM_DEPTH, C.PALM_WIDTH / 2, 0.0)
-    parts[:, 1] = _box(0.0, 0.0, 0.0, C.FINGER_LENGTH)  # x filled in below
-    parts[:, 2] = parts[:, 1]
-    parts[:, 3] = _box(-C.FOREARM_WIDTH / 2, -C.PALM_DEPTH - C.FOREARM_LENGTH, C.FOREARM_WIDTH / 2, -C.PALM_DEPTH)
-    # the fingers' x: _box(-h - finger width, 0, -h, length) and _box(h, 0, h + finger width, length)
-    parts[:, 1, :, 0] = np.stack([-h - C.FINGER_WIDTH, -h, -h, -h - C.FINGER_WIDTH], 1)
-    parts[:, 2, :, 0] = np.stack([h, h + C.FINGER_WIDTH, h + C.FINGER_WIDTH, h], 1)
+    h = np.asarray(openings, dtype=float).reshape(-1, 1) / 2.0
+    parts = np.repeat(_CLOSED_GRIPPER[None], len(h), axis=0)
+    parts[:, 1, :, 0] = -h + _CLOSED_GRIPPER[1, :, 0]
+    parts[:, 2, :, 0] = h + _CLOSED_GRIPPER[2, :, 0]
     return parts
 
 
@@ -82,6 +84,8 @@ def beyond_walls(poses: np.ndarray) -> bool:
 def _box(x0: float, y0: float, x1: float, y1: float) -> np.ndarray:
     return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], dtype=float)
 
+
+_CLOSED_GRIPPER = np.stack(gripper_polygons(0.0))  # gripper_polygons_batch moves its fingers apart
 
 # The shelf's walls, computed once (left, right, back; read-only by convention).
 SHELF_WALLS = tuple(wall_polygons())
