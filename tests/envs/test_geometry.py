@@ -30,3 +30,14 @@ def test_area_and_centroid_equal_the_roll_formulas_bit_for_bit():
             continue
         assert polygon_area(hull) == _roll_area(hull)
         assert np.array_equal(polygon_centroid(hull), _roll_centroid(hull))
+
+
+def test_gripper_outlines_of_many_openings_equal_each_openings_own_bit_for_bit():
+    from occrl.envs import world_constants as C
+    from occrl.envs.shelf_geometry import gripper_polygons, gripper_polygons_batch
+
+    openings = np.concatenate([np.random.default_rng(0).uniform(0.0, C.GRIPPER_STROKE, 500), [0.0, C.GRIPPER_STROKE]])
+    batch = gripper_polygons_batch(openings)
+    each = np.stack([np.stack(gripper_polygons(float(o))) for o in openings])
+    assert batch.shape == (len(openings), 4, 4, 2)
+    assert np.array_equal(batch, each) and np.array_equal(np.signbit(batch), np.signbit(each))
