@@ -26,3 +26,18 @@ def world_to_crop_pixel(point, gripper_pose, window=0.8, size=64, forward_offset
     d = np.linalg.norm(pts - np.asarray(point, float), axis=-1)
     r, c = np.unravel_index(d.argmin(), d.shape)
     return int(r), int(c)
+
+
+def checkpoint_as_written_before(run_dir, config, edit) -> None:
+    """Train one iteration of ``config`` in ``run_dir``, then rewrite its checkpoint with
+    ``edit(checkpoint_dict)`` applied: a checkpoint as an older occrl wrote it."""
+    import torch
+
+    from occrl.training import Trainer
+
+    trainer = Trainer(config, run_dir, seed=0, progress=False, tensorboard=False)
+    trainer.train(iterations=1)
+    trainer.close()
+    checkpoint = torch.load(run_dir / "checkpoint.pt", weights_only=True)
+    edit(checkpoint)
+    torch.save(checkpoint, run_dir / "checkpoint.pt")

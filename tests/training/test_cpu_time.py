@@ -7,10 +7,10 @@ import time
 from pathlib import Path
 
 import pytest
-import torch
 
 from occrl.training import Trainer, get_train_config
 from occrl.training.cpu_time import live_descendants_cpu_seconds, tree_cpu_seconds
+from tests.helpers import checkpoint_as_written_before
 
 BUSY = "import time\nt = time.process_time()\nwhile time.process_time() - t < {cpu}: pass\ntime.sleep({rest})"
 
@@ -54,12 +54,7 @@ def test_the_run_logs_its_cpu_time_and_keeps_it_across_a_resume(tmp_path):
 
 def test_a_checkpoint_from_before_the_cpu_time_resumes_without_it(tmp_path):
     cfg = get_train_config("tiny")
-    tr = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False)
-    tr.train(iterations=1)
-    tr.close()
-    ckpt = torch.load(tmp_path / "checkpoint.pt", weights_only=True)
-    del ckpt["state"]["cpu_seconds"]  # as written before it was measured
-    torch.save(ckpt, tmp_path / "checkpoint.pt")
+    checkpoint_as_written_before(tmp_path, cfg, lambda ckpt: ckpt["state"].pop("cpu_seconds"))  # as written before it was measured
     resumed = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False)
     resumed.train(iterations=2)
     resumed.close()

@@ -8,6 +8,7 @@ from occrl.training import CheckpointError, Curriculum, Trainer, get_train_confi
 from occrl.training.config import SETTING_CHOICES
 from occrl.modules import make_occnet
 from occrl.modules.weights import save_weights
+from tests.helpers import checkpoint_as_written_before
 
 
 def _weights(net):
@@ -200,14 +201,12 @@ def test_hybrid_promotion_rule(tmp_path):
 
 
 def test_checkpoints_from_before_a_new_setting_still_resume(tmp_path):
+    def drop_settings(ckpt):
+        for key in ("promotion", "promotion_eval_every", "promotion_eval_tasks"):
+            del ckpt["train_config"][key]  # as written before these settings existed
+
     cfg = get_train_config("tiny")
-    tr = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False)
-    tr.train(iterations=1)
-    tr.close()
-    ckpt = torch.load(tmp_path / "checkpoint.pt", weights_only=True)
-    for key in ("promotion", "promotion_eval_every", "promotion_eval_tasks"):
-        del ckpt["train_config"][key]  # as written before these settings existed
-    torch.save(ckpt, tmp_path / "checkpoint.pt")
+    checkpoint_as_written_before(tmp_path, cfg, drop_settings)
     assert Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False).iteration == 1
 
 
