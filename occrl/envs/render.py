@@ -178,9 +178,9 @@ def render_labels_batch(
     """
     h, w = canvas.shape
     full = [(0, h, w)] * len(np.asarray(gripper_poses).reshape(-1, 3))
-    return np.frombuffer(b"".join(_render_regions(gripper_poses, openings, detections, canvas, fov, full)), dtype=np.uint8).reshape(
-        -1, h, w
-    )
+    # (a bytearray: the label maps come out writable, as arrays of their own)
+    labels = bytearray().join(_render_regions(gripper_poses, openings, detections, canvas, fov, full))
+    return np.frombuffer(labels, dtype=np.uint8).reshape(-1, h, w)
 
 
 def render_labels_at(

@@ -112,3 +112,16 @@ def test_pillow_draws_float_polygons_at_their_truncated_coordinates():
     ImageDraw.Draw(a).polygon(polygon.ravel().tolist(), fill=1)
     ImageDraw.Draw(b).polygon(np.round(polygon).astype(np.int64).ravel().tolist(), fill=1)
     assert not np.array_equal(np.asarray(a), np.asarray(b))
+
+
+def test_label_maps_come_out_writable():
+    """The env hands them to torch.from_numpy, which warns on (and cannot own) a read-only buffer."""
+    import warnings
+
+    from occrl.envs.render import render_labels_batch
+
+    labels = render_labels_batch(np.array([[0.0, -0.1, 0.0], [0.1, -0.1, 0.2]]), np.array([0.085, 0.04]), [([], []), ([], [])])
+    assert labels.flags.writeable
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        torch.from_numpy(labels)
