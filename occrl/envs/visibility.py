@@ -207,7 +207,7 @@ def visible_fractions_batch(
     out = []
     for b in range(B):
         n = counts[b]
-        f = frac[b, :n] if in_view[b, :n].any() else np.zeros(n)
+        f = frac[b, :n].copy() if in_view[b, :n].any() else np.zeros(n)  # an array of its own, as before
         if hidden[b] is not None:
             f[hidden[b]] = 0.0
         out.append(f)
