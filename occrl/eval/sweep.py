@@ -117,20 +117,21 @@ def run_sweep(
     chunk = chunk or tasks
     points = [(sweep, value, method) for sweep in sweeps for value in (values or SWEEPS)[sweep] for method in methods]
     all_seeds = set(range(first_seed, first_seed + tasks))
-    to_run = sum(len(all_seeds - set(_cached_episodes(_point_path(out, m, sw, v)))) for sw, v, m in points)
+    to_run = sum(len(all_seeds - set(_episodes_by_seed(_cached_point(_point_path(out, m, sw, v))))) for sw, v, m in points)
     # one bar (and ETA) for the whole sweep; the points advance it task by task
     bar = tqdm(total=to_run, desc=f"sweep ({len(points)} points)", unit="task", disable=not progress)
     for upto in list(range(chunk, tasks, chunk)) + [tasks]:
         seeds = list(range(first_seed, first_seed + upto))
         for sweep, value, method in points:
             path = _point_path(out, method, sweep, value)
-            done = _cached_episodes(path)
+            cached = _cached_point(path)  # read once: its episodes and its noise
+            done = _episodes_by_seed(cached)
             if done and min(done) != first_seed:
                 raise ValueError(
                     f"{path} holds task seeds from {min(done)}, not from {first_seed}: use another --out folder for other task seeds"
                 )
             noise = clutter_noise if sweep == "clutter" else value
-            cached_noise = _point_noise(json.loads(path.read_text())) if done else noise
+            cached_noise = _point_noise(cached) if cached is not None else noise
             if cached_noise != noise:
                 raise ValueError(f"{path} holds tasks at noise {cached_noise:g}, not {noise:g}: use another --out folder for another noise")
             missing = [s for s in seeds if s not in done]
@@ -177,11 +178,14 @@ def _point_noise(point: dict) -> float:
     return float(point.get("noise", point["value"] if point["sweep"] == "noise" else 0.0))
 
 
-def _cached_episodes(path: Path) -> dict[int, EpisodeResult]:
-    """The episodes a cached point already holds, by seed (empty when there is no point yet)."""
-    if not path.exists():
-        return {}
-    return {e["seed"]: EpisodeResult(**e) for e in json.loads(path.read_text())["episodes"]}
+def _cached_point(path: Path) -> dict | None:
+    """A cached point as written (None when there is no point yet)."""
+    return json.loads(path.read_text()) if path.exists() else None
+
+
+def _episodes_by_seed(point: dict | None) -> dict[int, EpisodeResult]:
+    """The episodes a cached point holds, by seed (empty for no point)."""
+    return {} if point is None else {e["seed"]: EpisodeResult(**e) for e in point["episodes"]}
 
 
 def _points(out: Path) -> list[dict]:
