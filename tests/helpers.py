@@ -34,10 +34,11 @@ def checkpoint_as_written_before(run_dir, config, edit) -> None:
     import torch
 
     from occrl.training import Trainer
+    from occrl.training.run_folder import CHECKPOINT
 
     trainer = Trainer(config, run_dir, seed=0, progress=False, tensorboard=False)
     trainer.train(iterations=1)
     trainer.close()
-    checkpoint = torch.load(run_dir / "checkpoint.pt", weights_only=True)
+    checkpoint = torch.load(run_dir / CHECKPOINT, weights_only=True)
     edit(checkpoint)
-    torch.save(checkpoint, run_dir / "checkpoint.pt")
+    torch.save(checkpoint, run_dir / CHECKPOINT)
