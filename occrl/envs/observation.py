@@ -254,7 +254,8 @@ def world_pixels(worlds: Sequence) -> torch.Tensor:
         >>> bool((world_pixels(env.base_env.worlds) == td["pixels"]).all())
         True
     """
-    a = detection_arrays(worlds, worlds_visible_fractions(worlds))
+    poses = [w.object_poses() for w in worlds]  # read once for visibility and detections
+    a = detection_arrays(worlds, worlds_visible_fractions(worlds, poses), poses)
     polygons = detected_world_polygons(a["detected"], a["type_id"], a["pose"], a["vertices"], a["num_vertices"], a["target_type"])
     # render_shelf_labels + crop_to_pixels, bit for bit, drawing only the part of the shelf the window shows
     points = robot_centric_points(a["gripper_pose"].astype(np.float64))

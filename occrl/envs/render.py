@@ -17,7 +17,7 @@ from typing import Sequence
 
 import numpy as np
 import torch
-from PIL import Image, ImageDraw
+from PIL import Image
 
 from occrl.envs import world_constants as C
 from occrl.envs.visibility import pad_polygons, angular_extents
@@ -278,16 +278,37 @@ def _render_regions(gripper_poses, openings, detections, canvas: Canvas, fov: fl
     P = padded.shape[1]
     for b, (polys, is_target) in enumerate(detections):
         row0, row1, col1 = regions[b]
-        img = Image.new("L", (col1, row1 - row0), LABELS["observable"])
-        draw = ImageDraw.Draw(img)
-        fill = draw.draw.draw_polygon  # ImageDraw.polygon(xy, fill=label) on an "L" image, without its ink lookup
-        fill(fov_xy[b], LABELS["occluded"], 1)
+        # Pillow's core image and drawing objects, as Image.new and ImageDraw.Draw make them,
+        # without their Python wrappers (the same pixels)
+        size = (col1, row1 - row0)
+        image = Image.core.fill("L", size, LABELS["observable"])
+        draw = Image.core.draw(image, 0)
+        draw.draw_polygon(fov_xy[b], LABELS["occluded"], 1)
         for k in [*range(counts[b]), *range(most, P)]:  # this world's objects, then the walls
             if casts[b][k]:
-                fill(shadow_xy[b][k], LABELS["occluded"], 1)
+                draw.draw_polygon(shadow_xy[b][k], LABELS["occluded"], 1)
         objects = [xy[: 2 * len(p)] for xy, p in zip(object_xy[b], polys)]
         _draw_shelf_and_bodies(draw, walls_xy[b], edge_xy[b], objects, is_target, gripper_xy[b])
-        yield img.tobytes()
+        yield _image_bytes(image, size)
+
+
+def _image_bytes(image, size: tuple[int, int]) -> bytes:
+    """The raw bytes of a core "L" image, row by row: what ``Image.tobytes()`` returns (its raw
+    encoder, called directly)."""
+    encoder = Image.core.raw_encoder("L", "L")
+    encoder.setimage(image, (0, 0, *size))
+    chunks = []
+    try:
+        while True:
+            _, status, data = encoder.encode(max(65536, size[0] * size[1]))
+            chunks.append(data)
+            if status:
+                break
+    finally:
+        encoder.cleanup()
+    if status < 0:  # pragma: no cover - Pillow's own failure
+        raise RuntimeError(f"Pillow's raw encoder failed with status {status}")
+    return chunks[0] if len(chunks) == 1 else b"".join(chunks)
 
 
 def _gripper_world_polygons(poses: np.ndarray, openings: np.ndarray) -> np.ndarray:
@@ -303,14 +324,17 @@ def _gripper_world_polygons(poses: np.ndarray, openings: np.ndarray) -> np.ndarr
     return out
 
 
-def _draw_shelf_and_bodies(draw: ImageDraw.ImageDraw, walls: list, edge: list, objects: list, is_target, gripper: list) -> None:
+def _draw_shelf_and_bodies(draw, walls: list, edge: list, objects: list, is_target, gripper: list) -> None:
     """Walls, front edge, objects and the gripper's parts, in that order, each a flat list of
     Pillow's integer coordinates (x0, y0, x1, y1, ...): what both the abstract observation and the
-    true top-down view draw last."""
-    fill = draw.draw.draw_polygon  # ImageDraw.polygon(xy, fill=label) on an "L" image, without its ink lookup
+    true top-down view draw last. ``draw``: Pillow's core drawing object of an "L" image
+    (``Image.core.draw``); ``draw_polygon(xy, label, 1)`` and ``draw_lines(xy, label, width)``
+    are what ``ImageDraw.polygon(xy, fill=label)`` and ``ImageDraw.line(xy, fill=label, width)``
+    call on it, without their ink lookup."""
+    fill = draw.draw_polygon
     for xy in walls:
         fill(xy, LABELS["wall"], 1)
-    draw.line(edge, fill=LABELS["edge"], width=2)
+    draw.draw_lines(edge, LABELS["edge"], 2)
     for xy, tgt in zip(objects, is_target):
         fill(xy, LABELS["target"] if tgt else LABELS["clutter"], 1)
     for xy in gripper:
@@ -366,7 +390,7 @@ def render_true_scene(
         _xy_lists(_pillow_pixels(px)) for px in (walls, edge[None], canvas.to_pixels(padded), canvas.to_pixels(gripper))
     )
     objects = [xy[: 2 * len(p)] for xy, p in zip(object_xy, object_polygons)]
-    _draw_shelf_and_bodies(ImageDraw.Draw(img), walls_xy, edge_xy[0], objects, is_target, gripper_xy)
+    _draw_shelf_and_bodies(Image.core.draw(img.im, 0), walls_xy, edge_xy[0], objects, is_target, gripper_xy)
     return np.asarray(img, dtype=np.uint8)
 
 

@@ -8,6 +8,8 @@ of the window shows what is in front of the gripper.
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 __all__ = ["robot_centric_points", "robot_centric_pixels", "DEFAULT_WINDOW", "DEFAULT_SIZE", "DEFAULT_FORWARD_OFFSET"]
@@ -17,12 +19,16 @@ DEFAULT_SIZE = 64  # pixels
 DEFAULT_FORWARD_OFFSET = 0.15  # m: the window spans 0.25 m behind to 0.55 m ahead of the gripper
 
 
+@lru_cache(maxsize=8)
 def _local_grid(window: float, size: int, forward_offset: float) -> np.ndarray:
+    """(size, size, 2) pixel centres in the gripper frame; computed once per window (read-only)."""
     pix = window / size
     k = np.arange(size) + 0.5
     xl = (k - size / 2) * pix  # columns -> gripper +x (to the right in the image)
     yl = forward_offset + (size / 2 - k) * pix  # rows -> gripper +y (up in the image)
-    return np.stack(np.broadcast_arrays(xl[None, :], yl[:, None]), -1)  # (size, size, 2)
+    grid = np.stack(np.broadcast_arrays(xl[None, :], yl[:, None]), -1)  # (size, size, 2)
+    grid.flags.writeable = False
+    return grid
 
 
 def robot_centric_points(

@@ -63,7 +63,10 @@ def angular_extents(polys: np.ndarray, cam: np.ndarray, with_tangents: bool = Fa
     cam = np.asarray(cam, dtype=float)
     cx, cy, th = cam[..., 0, None, None], cam[..., 1, None, None], cam[..., 2, None]
     dx, dy = polys[..., 0] - cx, polys[..., 1] - cy
-    mx, my = dx.mean(-1, keepdims=True), dy.mean(-1, keepdims=True)  # towards the polygon's centre
+    # towards the polygon's centre (np.mean's own arithmetic, a sum divided by the count, without
+    # its Python wrapper: the same values)
+    count = polys.shape[-2]
+    mx, my = np.add.reduce(dx, -1, keepdims=True) / count, np.add.reduce(dy, -1, keepdims=True) / count
     # bearings relative to that direction: one arctan2 of (cross, dot), no wrapping needed
     rel = np.arctan2(mx * dy - my * dx, mx * dx + my * dy)
     centre = np.arctan2(my[..., 0], mx[..., 0]) - (th + math.pi / 2)  # relative to the camera axis (+y)
