@@ -172,15 +172,28 @@ def floor(net, obs, inference: str = "torch") -> None:
     one planner; everything else (rendering, world building, glue) is above the floor."""
     import occrl.envs.pymunk2d.world as world_module
     from occrl.envs.pymunk2d.world import ShelfWorld
+    from occrl.planners import rhp
+    from occrl.planners.recreate import WorldPool
     from occrl.planners.rhp import NetworkStepper
 
-    spent = {"physics": 0.0, "network": 0.0, "engine": 0.0}
-    originals = {"physics": (ShelfWorld, "step"), "network": (NetworkStepper, "step")}
+    spent = {"physics": 0.0, "network": 0.0, "engine": 0.0, "rendering": 0.0, "world building": 0.0}
+    # above the floor: the roll-outs' observations (rhp.render_pixels, counted per call and per
+    # world) and the roll-out worlds taken from the pool (built or set to the root states)
+    originals = {
+        "physics": (ShelfWorld, "step"),
+        "network": (NetworkStepper, "step"),
+        "rendering": (rhp, "render_pixels"),
+        "world building": (WorldPool, "take"),
+    }
+    renders = {"calls": 0, "worlds": 0}
     saved = {k: getattr(cls, name) for k, (cls, name) in originals.items()}
     chipmunk = world_module._cp
 
     def timed(part, fn):
         def wrapper(*a, **kw):
+            if part == "rendering":
+                renders["calls"] += 1
+                renders["worlds"] += len(a[0])
             t = time.perf_counter()
             try:
                 return fn(*a, **kw)
@@ -216,6 +229,48 @@ def floor(net, obs, inference: str = "torch") -> None:
         f"{100 * (1 - low / total):.0f} % above the floor ({100 * (1 - (spent['engine'] + spent['network']) / total):.0f} % above "
         "the engine + network)"
     )
+    above = total - low
+    other = above - spent["rendering"] - spent["world building"]
+    print(
+        f"  above the floor, {1e3 * above / n:.1f} ms: rendering the roll-outs' observations {1e3 * spent['rendering'] / n:.1f} ms "
+        f"({renders['calls'] / n:.1f} calls of {renders['worlds'] / max(renders['calls'], 1):.1f} worlds per decision), "
+        f"world building {1e3 * spent['world building'] / n:.1f} ms, other {1e3 * other / n:.1f} ms"
+    )
+    fixed, per_world, calls_fixed, calls_per_world = perception_cost()
+    print(
+        f"  the observation pipeline (occrl.envs.observation.world_pixels) costs {fixed:.2f} ms per call + {per_world:.2f} ms per world "
+        f"({calls_fixed:.0f} + {calls_per_world:.0f} per world Python-level calls): at {renders['calls'] / n:.1f} calls and "
+        f"{renders['worlds'] / n:.1f} worlds per decision, {renders['calls'] / n * fixed:.1f} ms + {renders['worlds'] / n * per_world:.1f} ms"
+    )
+
+
+def perception_cost(sizes=(1, 2, 4, 8, 16), repeats: int = 20) -> tuple[float, float, float, float]:
+    """The observation pipeline's cost as a fixed part per call plus a part per world: a least-squares
+    line through its median time on 1-16 stage-2 worlds, and the same for the number of
+    Python-level function calls it makes (cProfile's count: the interpreter's work, which is what
+    a call of a few worlds mostly pays for)."""
+    import cProfile
+    import pstats
+
+    from occrl.envs import ShelfWorld
+    from occrl.envs.observation import world_pixels
+
+    worlds = [ShelfWorld(Scene.sample(2, seed=30_000 + s)) for s in range(max(sizes))]
+    times, calls = [], []
+    for size in sizes:
+        world_pixels(worlds[:size])
+        runs = []
+        for _ in range(repeats):
+            t = time.perf_counter()
+            world_pixels(worlds[:size])
+            runs.append(time.perf_counter() - t)
+        times.append(1e3 * float(np.median(runs)))
+        prof = cProfile.Profile()
+        prof.runcall(world_pixels, worlds[:size])
+        calls.append(pstats.Stats(prof).total_calls)
+    per_world, fixed = np.polyfit(sizes, times, 1)
+    calls_per_world, calls_fixed = np.polyfit(sizes, calls, 1)
+    return float(fixed), float(per_world), float(calls_fixed), float(calls_per_world)
 
 
 # where a decision's time goes (cProfile cumulative time of these functions)

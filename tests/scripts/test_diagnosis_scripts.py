@@ -1,6 +1,7 @@
 """The analysis scripts behind "Why stage 2 stops here" (docs/experiments.md) run and report what they say."""
 
 import json
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -55,3 +56,21 @@ def test_failure_categories_replays_a_failed_scripted_episode(tmp_path):
 def test_planner_decisions_prints_every_decision():
     out = _run("scripts/planner_decisions.py", "--method", "hybrid-2x2", "--stage", "1", "--seed", "3", "--steps", "2")
     assert out.count("step ") == 2 and out.count("    root 0: returns") == 2
+
+
+def test_perception_identity_passes_on_itself_and_fails_on_a_changed_render(tmp_path):
+    out = _run("scripts/perception_identity.py", "--reference", str(ROOT), "--batches", "2")
+    assert out.startswith("identical:")
+    changed = tmp_path / "checkout"
+    shutil.copytree(ROOT / "occrl", changed / "occrl", ignore=shutil.ignore_patterns("__pycache__"))
+    render = changed / "occrl" / "envs" / "render.py"
+    source = render.read_text()
+    assert "[128, 128, 128],  # observable: grey" in source
+    render.write_text(source.replace("[128, 128, 128],  # observable: grey", "[127, 128, 128],  # observable: grey"))
+    proc = subprocess.run(
+        [sys.executable, "scripts/perception_identity.py", "--reference", str(changed), "--batches", "2"],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+    )
+    assert proc.returncode == 1 and "differs" in proc.stdout
