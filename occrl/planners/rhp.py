@@ -296,6 +296,9 @@ def rhp_batched(
         if not alive.any():
             break
         idx = torch.from_numpy(np.flatnonzero(alive))
+        if len(idx) == n:  # every roll-out goes on: the step's outputs are the new rows as they are
+            out, h, c = stepper.step(render_pixels(worlds), h, c)
+            continue
         sub, h_new, c_new = stepper.step(render_pixels([worlds[k] for k in idx.tolist()]), h[idx], c[idx])
         # alive rows move on; finished rows keep their last outputs (never read again)
         out = {key: value.clone() for key, value in out.items()}

@@ -39,7 +39,7 @@ from pymunk._chipmunk_cffi import ffi, lib
 
 from occrl.envs.pymunk2d.chipmunk_layout import layout_confirmed
 
-__all__ = ["AVAILABLE", "zero_pivot", "zero_gear"]
+__all__ = ["AVAILABLE", "zero_pivot", "zero_gear", "ImpulseSlots"]
 
 # struct cpConstraint: klass, space, a, b, next_a, next_b (6 pointers), then maxForce, errorBias,
 # maxBias, collideBodies (padded), preSolve, postSolve, userData: 104 bytes on 64-bit
@@ -72,6 +72,44 @@ def zero_pivot(joint: pymunk.PivotJoint) -> None:
 def zero_gear(joint: pymunk.GearJoint) -> None:
     """Set a gear joint's accumulated impulse to zero (as a new joint's)."""
     _write(joint, _GEAR_JACC, 1)
+
+
+class ImpulseSlots:
+    """The accumulated impulses of joints kept over many actions, located once: :meth:`zero`
+    clears them all as :func:`zero_pivot` / :func:`zero_gear` would, without casting each
+    joint's pointer again at every action. The joints must outlive this object (it points into
+    their C structs).
+
+    Examples:
+        >>> import pymunk
+        >>> from occrl.envs.pymunk2d.joint_reset import ImpulseSlots
+        >>> space = pymunk.Space()
+        >>> body = pymunk.Body(1.0, 1.0)
+        >>> body.velocity, body.angular_velocity = (1.0, 0.0), 1.0
+        >>> pivot = pymunk.PivotJoint(space.static_body, body, (0, 0), (0, 0))
+        >>> gear = pymunk.GearJoint(space.static_body, body, 0.0, 1.0)
+        >>> pivot.max_bias = gear.max_bias = 0.0
+        >>> space.add(body, pivot, gear)
+        >>> space.step(0.01)
+        >>> slots = ImpulseSlots(pivots=[pivot], gears=[gear])
+        >>> slots.zero(); pivot.impulse, gear.impulse
+        (0.0, 0.0)
+    """
+
+    def __init__(self, pivots: list[pymunk.PivotJoint], gears: list[pymunk.GearJoint]) -> None:
+        self._doubles = [_pointer(joint, _PIVOT_JACC) for joint in pivots] + [_pointer(joint, _GEAR_JACC) for joint in gears]
+        self._pivots = len(pivots)
+
+    def zero(self) -> None:
+        """Set every slot's accumulated impulse to zero (as a new joint's)."""
+        for k, pointer in enumerate(self._doubles):
+            pointer[0] = 0.0
+            if k < self._pivots:
+                pointer[1] = 0.0
+
+
+def _pointer(constraint: pymunk.Constraint, offset: int):
+    return ffi.cast("double *", ffi.cast("char *", constraint._constraint) + offset)
 
 
 def _layout_holds() -> bool:

@@ -222,6 +222,7 @@ class ShelfWorld:
         self.shapes = []
         self.floor_force = np.zeros(self.num_objects)  # mu * m * g of each object, this action
         self.floor_arm = np.zeros(self.num_objects)  # radius of gyration: torque = force * arm
+        self._floor_limits_stale = True  # floor_force / floor_arm changed since the kept joints took them
         for o in scene.objects:
             body = pymunk.Body(mass=1.0, moment=1.0)
             self.bodies.append(body)
@@ -229,6 +230,7 @@ class ShelfWorld:
         space.add(self.control, self.gripper, *self.bodies)
         self._constraints: list[pymunk.Constraint] = []  # the joints built for this action (taken out at the next)
         self._kept_joints: list[pymunk.Constraint] = []  # drive and floor joints kept between actions (joint_reset)
+        self._kept_impulses: joint_reset.ImpulseSlots | None = None  # their accumulated impulses, zeroed at every action
         self._shapes_in_space = False
         self._dynamic_shapes = [*self.gripper_shapes, *self.shapes]  # removed and re-added at every action
         self._filtered: int | None = None  # object whose shape is in the gripper's group
@@ -244,6 +246,7 @@ class ShelfWorld:
         shape.friction = friction
         self.floor_force[i] = friction * mass * C.GRAVITY
         self.floor_arm[i] = math.sqrt(moment / mass)
+        self._floor_limits_stale = True  # the kept floor joints take them at the next cold start
 
     def _set_poses(self, gripper_pose: np.ndarray, object_poses: np.ndarray) -> None:
         # Chipmunk's setters called directly (what pymunk's properties call, without their overhead)
@@ -278,14 +281,15 @@ class ShelfWorld:
             if not self._kept_joints:
                 self._kept_joints = self._drive_and_floor_joints()
                 space.add(*self._kept_joints)
+                self._kept_impulses = joint_reset.ImpulseSlots(pivots=self._kept_joints[0::2], gears=self._kept_joints[1::2])
             kept = self._kept_joints
-            for k in range(0, len(kept), 2):
-                joint_reset.zero_pivot(kept[k])
-                joint_reset.zero_gear(kept[k + 1])
-            for i in range(self.num_objects):  # the floor friction of this action's (noisy) physics
-                force = float(self.floor_force[i])
-                _cp.cpConstraintSetMaxForce(kept[2 + 2 * i]._constraint, force)
-                _cp.cpConstraintSetMaxForce(kept[3 + 2 * i]._constraint, force * float(self.floor_arm[i]))
+            self._kept_impulses.zero()
+            if self._floor_limits_stale:  # the floor friction of this action's (noisy) physics
+                for i in range(self.num_objects):
+                    force = float(self.floor_force[i])
+                    _cp.cpConstraintSetMaxForce(kept[2 + 2 * i]._constraint, force)
+                    _cp.cpConstraintSetMaxForce(kept[3 + 2 * i]._constraint, force * float(self.floor_arm[i]))
+                self._floor_limits_stale = False
             cons = []
         else:  # new joints every action
             cons = self._drive_and_floor_joints()
