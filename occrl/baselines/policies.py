@@ -13,6 +13,7 @@ other tasks share its batch (a sweep point extended by more seeds equals the poi
 
 from __future__ import annotations
 
+import math
 from typing import Sequence
 
 import torch
@@ -33,6 +34,8 @@ class NetPolicy(TensorDictModuleBase):
             the tensordict as for ``net.policy`` (append ``net.make_primer()`` to the env).
         stochastic: sample ``loc + scale * eps`` (the policy's Normal) instead of taking ``loc``.
         seed: seeds the sampling until :meth:`reseed_worlds` or :meth:`reseed` is called.
+        spread: multiplies the standard deviation of the sampled actions, a temperature (1: the
+            policy's own; 0: its mean, drawn from the same generators). Stochastic only.
 
     Examples:
         >>> import torch
@@ -51,14 +54,19 @@ class NetPolicy(TensorDictModuleBase):
         (torch.Size([2, 3, 4]), True)
     """
 
-    def __init__(self, net: OccNet, stochastic: bool, seed: int = 0) -> None:
+    def __init__(self, net: OccNet, stochastic: bool, seed: int = 0, spread: float = 1.0) -> None:
         super().__init__()
         if not isinstance(net, OccNet):
             raise TypeError(f"net must be an occrl OccNet (make_occnet / load_pretrained), got {type(net).__name__}")
         if not isinstance(stochastic, bool):
             raise TypeError(f"stochastic must be a bool (True: sample the action, False: its mean), got {stochastic!r}")
+        if isinstance(spread, bool) or not isinstance(spread, (int, float)) or not math.isfinite(spread) or spread < 0:
+            raise ValueError(f"spread must be a finite number >= 0 (1: the policy's own standard deviation), got {spread!r}")
+        if spread != 1.0 and not stochastic:
+            raise ValueError(f"spread applies to sampled actions only (stochastic=True), got spread={spread!r} with stochastic=False")
         self.net = net
         self.stochastic = stochastic
+        self.spread = float(spread)
         self.in_keys = list(net.policy.in_keys)
         self.out_keys = list(net.policy.out_keys)
         self._generators: list[torch.Generator] = []
@@ -86,5 +94,7 @@ class NetPolicy(TensorDictModuleBase):
             eps = torch.stack([torch.randn(flat_loc.shape[-1], generator=g) for g in self._generators])
         else:
             eps = torch.randn(flat_loc.shape, generator=self._shared)
+        if self.spread != 1.0:
+            scale = scale * self.spread
         tensordict.set("action", loc + scale * eps.reshape(loc.shape).to(loc.dtype))
         return tensordict
