@@ -186,11 +186,12 @@ class WorldPool:
     """Imagined worlds kept between uses, so that the planner does not rebuild pymunk worlds.
 
     :meth:`take` hands out one world per state: a kept world built for the same objects (types,
-    shapes, which is the target) is set to the state (``ShelfWorld.set_poses`` and the gripper),
-    otherwise a new one is built with :func:`make_world`. Either way the world steps bit for bit
-    as ``make_world(state)`` would (tested). Each call takes back every world the previous call
-    handed out, so a caller holds one call's worlds at a time; at most ``max_kept`` idle worlds
-    are kept (the least recently built object sets go first).
+    shapes, which is the target) is set to the state (``ShelfWorld.set_poses`` and the gripper);
+    else a kept world with as many objects takes the new ones (``ShelfWorld.rebuild``); only
+    when there is neither is a new one built with :func:`make_world`. Either way the world steps
+    bit for bit as ``make_world(state)`` would (tested). Each call takes back every world the
+    previous call handed out, so a caller holds one call's worlds at a time; at most
+    ``max_kept`` idle worlds are kept (the least recently built object sets go first).
 
     Examples:
         >>> import numpy as np
@@ -202,19 +203,23 @@ class WorldPool:
         >>> again = pool.take([with_target(state, (0.1, 0.2, 0.0))])  # the same objects elsewhere: kept world reused
         >>> any(again[0] is w for w in first), again[0].object_poses().round(3).tolist(), pool.built
         (True, [[0.1, 0.2, 0.0]], 2)
+        >>> other = RecreatedState((), (0.0, -0.1, 0.0), 0.085, False, target_type=2, target_vertices=2 * box)
+        >>> pool.take([with_target(other, (0.0, 0.2, 0.0))])[0] is again[0], pool.built, pool.rebuilt  # as many objects
+        (True, 2, 1)
     """
 
     def __init__(self, max_kept: int = 64) -> None:
         if isinstance(max_kept, bool) or not isinstance(max_kept, int) or max_kept < 0:
             raise ValueError(f"max_kept must be an int >= 0, got {max_kept!r}")
         self.max_kept = max_kept
-        self.built = 0  # worlds built so far (the rest of the worlds handed out were reused)
+        self.built = 0  # worlds built so far
+        self.rebuilt = 0  # kept worlds that took other objects (ShelfWorld.rebuild); the rest were set to new poses
         self._idle: dict[tuple, list[ShelfWorld]] = {}
         self._lent: list[tuple[tuple, ShelfWorld]] = []
 
     def __getstate__(self) -> dict:
         # a cache: copies and pickles (process workers) start empty rather than carry pymunk spaces
-        return {"max_kept": self.max_kept, "built": 0, "_idle": {}, "_lent": []}
+        return {"max_kept": self.max_kept, "built": 0, "rebuilt": 0, "_idle": {}, "_lent": []}
 
     def take(self, states: Sequence[RecreatedState]) -> list[ShelfWorld]:
         """One world per state, set to it; the worlds of the previous call come back to the pool."""
@@ -229,6 +234,11 @@ class WorldPool:
                 world = idle.pop()
                 world.set_poses(state.gripper_pose, np.array([o.pose for o in state.objects], float))
                 _set_gripper(world, state)
+            elif (other := self._idle_with(len(state.objects))) is not None:
+                world = other.pop()
+                world.rebuild(Scene.unchecked(state.objects, state.gripper_pose))
+                _set_gripper(world, state)
+                self.rebuilt += 1
             else:
                 world = make_world(state)
                 self.built += 1
@@ -236,6 +246,14 @@ class WorldPool:
             worlds.append(world)
         self._trim()
         return worlds
+
+    def _idle_with(self, count: int) -> list[ShelfWorld] | None:
+        """The idle worlds of the least recently built object set with ``count`` objects (and the
+        planning physics), or None."""
+        for key, worlds in self._idle.items():
+            if worlds and key[0] == PLANNING_PHYSICS and len(key) - 1 == count:
+                return worlds
+        return None
 
     def _trim(self) -> None:
         kept = sum(len(v) for v in self._idle.values())

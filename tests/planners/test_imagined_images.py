@@ -129,6 +129,56 @@ def test_world_pool_worlds_step_as_newly_built_ones_bit_for_bit():
     assert copy.deepcopy(pool).take([states[0]])[0] is not world  # copies start empty
 
 
+def test_world_pool_worlds_that_take_other_objects_step_as_newly_built_ones_bit_for_bit():
+    from collections import defaultdict
+
+    from occrl.planners import WorldPool
+    from occrl.planners.recreate import _object_set
+
+    rng = np.random.default_rng(1)
+    by_count = defaultdict(list)  # recreated states of stages 1-3, held targets and grasps included
+    for stage, seed in ((1, 3), (2, 4), (3, 5)):
+        for td in _visited_observations(stage, 0.0, seed, 15, reset_done=True):
+            for i in range(8):
+                state = recreate(td[i])
+                by_count[len(state.objects)].append(state)
+    pairs = 0
+    for states in by_count.values():
+        for before, after in zip(states, states[1:]):
+            if _object_set(before) == _object_set(after):
+                continue  # the same objects: set_poses, tested above
+            pool = WorldPool()
+            (kept,) = pool.take([before])
+            for _ in range(2):  # dirty the kept world, as a roll-out does (contacts, a grasp, the fingers)
+                kept.step(rng.uniform(-1, 1, 4))
+            (world,) = pool.take([after])
+            assert world is kept and pool.rebuilt == 1 and pool.built == 1
+            fresh = make_world(after)
+            assert world.unseen_while_held == fresh.unseen_while_held and world.held == fresh.held
+            assert world.target_index == fresh.target_index and np.array_equal(world.padded_vertices, fresh.padded_vertices)
+            for _ in range(3):
+                action = rng.uniform(-1, 1, 4)
+                assert world.step(action) == fresh.step(action)
+                assert np.array_equal(world.object_poses(), fresh.object_poses())
+                assert np.array_equal(world.gripper_pose(), fresh.gripper_pose()) and world.opening == fresh.opening
+            assert np.array_equal(world_pixels([world]), world_pixels([fresh]))
+            pairs += 1
+    assert pairs >= 100
+
+
+def test_rebuild_refuses_another_object_count_or_noise_and_leaves_the_world():
+    from occrl.envs import Scene, ShelfWorld
+
+    world = ShelfWorld(Scene.sample(2, seed=0))
+    poses = world.object_poses()
+    with pytest.raises(ValueError, match=f"rebuild needs a scene of {world.num_objects} objects"):
+        world.rebuild(Scene.sample(1, seed=0, num_objects=1))
+    noisy = ShelfWorld(Scene.sample(2, seed=0), noise=0.1)
+    with pytest.raises(ValueError, match="noise-free worlds"):
+        noisy.rebuild(Scene.sample(2, seed=0))
+    assert np.array_equal(world.object_poses(), poses)
+
+
 def test_hybrid_planner_chooses_alike_with_and_without_kept_worlds():
     from occrl.planners import HybridPlanner
     from occrl.planners.rhp import rhp_batched

@@ -63,6 +63,7 @@ _AT_REST = (0.0, 0.0)
 _GRIPPER_GROUP = 1  # shapes in this group never collide with each other (gripper + held object)
 _IN_GRIPPER_GROUP = pymunk.ShapeFilter(group=_GRIPPER_GROUP)
 _NO_GROUP = pymunk.ShapeFilter()
+_IDENTITY = pymunk.Transform.identity()
 # fraction of a grasp joint's error left after one second (1 - 1e-4 corrected in 0.5 s)
 GRASP_ERROR_BIAS = 1e-8
 # contact depths of every touching pair after a step (arbiters no longer touching read 0)
@@ -164,9 +165,39 @@ class ShelfWorld:
         if not isinstance(physics, PhysicsSettings):
             raise TypeError(f"physics must be an occrl.envs.PhysicsSettings, got {type(physics).__name__}")
         self.physics = physics
-        self.scene = scene
         self.noise = float(noise)
         self.rng = rng if rng is not None else np.random.default_rng(0)
+        self._take_scene(scene)
+        self._contact_buffer = pymunk.batch.Buffer()
+        self._build(scene)
+
+    def rebuild(self, scene: Scene) -> None:
+        """Become the world of another ``scene`` with as many objects, in this pymunk space: each
+        object's shape, mass and friction set anew, every body placed at rest, the gripper open and
+        empty. It then steps bit for bit as ``ShelfWorld(scene, physics=self.physics)`` would
+        (tested), at a fraction of the cost of building one: for planners that keep their imagined
+        worlds between decisions (:class:`occrl.planners.WorldPool`). Noise-free worlds only.
+
+        Raises:
+            ValueError: if the scene has another number of objects or the world has noise; the
+                world is left unchanged.
+        """
+        if len(scene.objects) != self.num_objects:
+            raise ValueError(f"rebuild needs a scene of {self.num_objects} objects (this world's), got {len(scene.objects)}")
+        if self.noise > 0.0:
+            raise ValueError(f"rebuild is for noise-free worlds (the planners' imagined ones); this one has noise {self.noise}")
+        self._take_scene(scene)
+        for i, vertices in enumerate(self.nominal_vertices):
+            # the convex hull pymunk.Poly builds from the vertices (cpPolyShapeSetVerts), as a new shape has it
+            self.shapes[i].unsafe_set_vertices(vertices.tolist(), transform=_IDENTITY)
+            self._set_physics(i, vertices, C.NOMINAL_DENSITY, C.NOMINAL_FRICTION)
+        self._set_opening(C.GRIPPER_STROKE)
+        self._set_poses(np.asarray(scene.gripper_pose, float), np.array([o.pose for o in scene.objects], float).reshape(-1, 3))
+
+    def _take_scene(self, scene: Scene) -> None:
+        """The scene and what the world reads from it (objects' types, shapes, target), the
+        gripper open and empty, no validity measure yet."""
+        self.scene = scene
         self.num_objects = len(scene.objects)
         # a recreated planning state may not contain the target: -1 then
         self.target_index = next((i for i, o in enumerate(scene.objects) if o.is_target), -1)
@@ -187,8 +218,6 @@ class ShelfWorld:
         self.unseen_while_held: int | None = None
         self.penetration = 0.0
         self.crossed_wall = False
-        self._contact_buffer = pymunk.batch.Buffer()
-        self._build(scene)
 
     # ------------------------------------------------------------------ construction
     def _build(self, scene: Scene) -> None:
