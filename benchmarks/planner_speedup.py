@@ -3,6 +3,7 @@
 Usage:
     git worktree add /tmp/occrl-ref <commit>        # the code to compare against
     python benchmarks/planner_speedup.py --reference /tmp/occrl-ref [--decisions 24] [--rounds 2] [--inference onnxruntime]
+    python benchmarks/planner_speedup.py --reference /tmp/occrl-ref --episodes 8 [--rounds 2]
 
 Both sides take the same decisions (observations along scripted stage-2 episodes, one planner per
 m x h that sees them in episode order, as in an episode) in child processes on one core each,
@@ -10,7 +11,9 @@ alternated side by side for ``--rounds`` rounds so that the machine's drift hits
 prints, per m x h, the p50 and p95 decision time of each side and their ratio (this / reference),
 and whether both sides chose the same actions (they should, unless the reference predates a
 behaviour change). ``--inference onnxruntime`` runs this side's roll-outs on ONNX Runtime (the
-reference side always uses its default).
+reference side always uses its default). ``--episodes N`` times whole held-out stage-2 episodes
+instead (hybrid 4x4 as ``occrl eval`` runs it: one planner for all tasks, so what it keeps between
+decisions counts) and checks that both sides played the same episodes.
 """
 
 from __future__ import annotations
@@ -59,10 +62,29 @@ print(json.dumps(out))
 """
 
 
-def measure(root: Path, decisions: int, inference: str = "torch") -> dict:
+# --episodes: whole held-out stage-2 episodes of hybrid 4x4 as occrl eval runs them (one planner
+# for all tasks, so its kept roll-out worlds carry over from decision to decision)
+EPISODES_CHILD = r"""
+import json, sys, time
+import torch
+torch.set_num_threads(1)
+from occrl.eval.runner import run_tasks
+
+tasks = int(sys.argv[1])
+options = {"inference": sys.argv[2]} if sys.argv[2] != "torch" else {}
+seeds = [10_000_000 + i for i in range(tasks)]
+t = time.perf_counter()
+results = run_tasks("hybrid-4x4", 2, seeds, workers=1, progress=False, **options)
+wall = time.perf_counter() - t
+print(json.dumps({"wall": wall, "episodes": [[r.seed, bool(r.success), int(r.actions)] for r in results]}))
+"""
+
+
+def measure(root: Path, decisions: int, inference: str = "torch", episodes: int = 0) -> dict:
     env = dict(os.environ, PYTHONPATH=str(root), OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
+    args = [EPISODES_CHILD, str(episodes), inference] if episodes else [CHILD, str(decisions), json.dumps(SIZES), inference]
     proc = subprocess.run(
-        [sys.executable, "-c", CHILD, str(decisions), json.dumps(SIZES), inference],
+        [sys.executable, "-c", *args],
         cwd=root,
         env=env,
         capture_output=True,
@@ -80,6 +102,12 @@ def main() -> None:
     parser.add_argument("--decisions", type=int, default=24)
     parser.add_argument("--rounds", type=int, default=2)
     parser.add_argument("--inference", choices=["torch", "onnxruntime"], default="torch", help="this side's roll-out inference")
+    parser.add_argument(
+        "--episodes",
+        type=int,
+        default=0,
+        help="instead: the wall time of this many held-out stage-2 hybrid 4x4 episodes (occrl eval's way) per side",
+    )
     args = parser.parse_args()
     here = Path(__file__).resolve().parent.parent
     ref = Path(args.reference).resolve()
@@ -88,8 +116,18 @@ def main() -> None:
     runs: dict[str, list[dict]] = {"this": [], "reference": []}
     for r in range(args.rounds):
         for side, root in (("reference", ref), ("this", here)) if r % 2 == 0 else (("this", here), ("reference", ref)):
-            runs[side].append(measure(root, args.decisions, args.inference if side == "this" else "torch"))
+            runs[side].append(measure(root, args.decisions, args.inference if side == "this" else "torch", args.episodes))
             print(f"round {r + 1}/{args.rounds}: {side} done", flush=True)
+    if args.episodes:
+        wall = {side: np.array([run["wall"] for run in runs[side]]) for side in runs}
+        same = sum(a == b for a, b in zip(runs["this"][0]["episodes"], runs["reference"][0]["episodes"]))
+        print(
+            f"\n{args.episodes} held-out stage-2 episodes of hybrid 4x4 x {args.rounds} rounds, one core per side; reference: {ref}; "
+            f"this side's inference: {args.inference}\nwall per round: reference {', '.join(f'{w:.1f}' for w in wall['reference'])} s, "
+            f"this {', '.join(f'{w:.1f}' for w in wall['this'])} s; ratio of the medians {np.median(wall['this']) / np.median(wall['reference']):.2f}x; "
+            f"the same episodes (seed, success, actions) in {same}/{args.episodes}"
+        )
+        return
     print(
         f"\n{args.decisions} decisions on stage-2 states x {args.rounds} rounds, one core per side; reference: {ref}; "
         f"this side's inference: {args.inference}"
