@@ -68,15 +68,21 @@ EPISODES_CHILD = r"""
 import json, sys, time
 import torch
 torch.set_num_threads(1)
-from occrl.eval.runner import run_tasks
+from occrl.envs.episodes import run_episodes, task_scenes
+from occrl.eval.methods import make_method
 
 tasks = int(sys.argv[1])
 options = {"inference": sys.argv[2]} if sys.argv[2] != "torch" else {}
+method = make_method("hybrid-4x4", **options)
 seeds = [10_000_000 + i for i in range(tasks)]
 t = time.perf_counter()
-results = run_tasks("hybrid-4x4", 2, seeds, workers=1, progress=False, **options)
+results = []
+for start in range(0, tasks, 16):  # occrl eval's chunks of 16 worlds, one planner for all
+    chunk = seeds[start : start + 16]
+    results += run_episodes(method.policy, task_scenes(2, chunk), chunk, 0.0, 16, method.primers, method.exploration)
 wall = time.perf_counter() - t
-print(json.dumps({"wall": wall, "episodes": [[r.seed, bool(r.success), int(r.actions)] for r in results]}))
+decisions = [d.seconds for d in method.policy.decisions]
+print(json.dumps({"wall": wall, "decisions": decisions, "episodes": [[r.seed, bool(r.success), int(r.actions)] for r in results]}))
 """
 
 
@@ -121,11 +127,15 @@ def main() -> None:
     if args.episodes:
         wall = {side: np.array([run["wall"] for run in runs[side]]) for side in runs}
         same = sum(a == b for a, b in zip(runs["this"][0]["episodes"], runs["reference"][0]["episodes"]))
+        t = {side: 1e3 * np.concatenate([run["decisions"] for run in runs[side]]) for side in runs}
+        p = {side: (np.percentile(v, 50), np.percentile(v, 95)) for side, v in t.items()}
         print(
             f"\n{args.episodes} held-out stage-2 episodes of hybrid 4x4 x {args.rounds} rounds, one core per side; reference: {ref}; "
             f"this side's inference: {args.inference}\nwall per round: reference {', '.join(f'{w:.1f}' for w in wall['reference'])} s, "
             f"this {', '.join(f'{w:.1f}' for w in wall['this'])} s; ratio of the medians {np.median(wall['this']) / np.median(wall['reference']):.2f}x; "
-            f"the same episodes (seed, success, actions) in {same}/{args.episodes}"
+            f"the same episodes (seed, success, actions) in {same}/{args.episodes}\n"
+            f"their decisions (the planner's own time, as HybridPlanner.decisions records it): p50 {p['reference'][0]:.1f} -> {p['this'][0]:.1f} ms "
+            f"({p['this'][0] / p['reference'][0]:.2f}x), p95 {p['reference'][1]:.1f} -> {p['this'][1]:.1f} ms ({p['this'][1] / p['reference'][1]:.2f}x)"
         )
         return
     print(
