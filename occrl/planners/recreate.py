@@ -229,13 +229,12 @@ class WorldPool:
         worlds = []
         for state in states:
             key = _object_set(state)
-            idle = self._idle.get(key)
-            if idle:
-                world = idle.pop()
+            if key in self._idle:
+                world = self._pop_idle(key)
                 world.set_poses(state.gripper_pose, np.array([o.pose for o in state.objects], float))
                 _set_gripper(world, state)
-            elif (other := self._idle_with(len(state.objects))) is not None:
-                world = other.pop()
+            elif (other := self._idle_key_with(len(state.objects))) is not None:
+                world = self._pop_idle(other)
                 world.rebuild(Scene.unchecked(state.objects, state.gripper_pose))
                 _set_gripper(world, state)
                 self.rebuilt += 1
@@ -247,12 +246,21 @@ class WorldPool:
         self._trim()
         return worlds
 
-    def _idle_with(self, count: int) -> list[ShelfWorld] | None:
-        """The idle worlds of the least recently built object set with ``count`` objects (and the
-        planning physics), or None."""
-        for key, worlds in self._idle.items():
-            if worlds and key[0] == PLANNING_PHYSICS and len(key) - 1 == count:
-                return worlds
+    def _pop_idle(self, key: tuple) -> ShelfWorld:
+        """An idle world of the object set ``key``; a set without idle worlds leaves the pool (so
+        that a long run does not collect the keys of every object set it has seen)."""
+        worlds = self._idle[key]
+        world = worlds.pop()
+        if not worlds:
+            del self._idle[key]
+        return world
+
+    def _idle_key_with(self, count: int) -> tuple | None:
+        """The least recently kept object set with ``count`` objects (and the planning physics)
+        that has an idle world, or None."""
+        for key in self._idle:
+            if key[0] == PLANNING_PHYSICS and len(key) - 1 == count:
+                return key
         return None
 
     def _trim(self) -> None:

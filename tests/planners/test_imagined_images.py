@@ -166,6 +166,18 @@ def test_world_pool_worlds_that_take_other_objects_step_as_newly_built_ones_bit_
     assert pairs >= 100
 
 
+def test_world_pool_keeps_no_trace_of_object_sets_without_idle_worlds():
+    from occrl.planners import WorldPool
+
+    pool = WorldPool(max_kept=4)
+    states = [recreate(td[i]) for td in _visited_observations(2, 0.0, 6, steps=6, reset_done=False) for i in range(8)]
+    for state in states:
+        pool.take([state, state])
+    idle = pool._idle  # the pool's own bookkeeping: every kept object set holds an idle world
+    assert all(idle.values()) and sum(len(v) for v in idle.values()) <= 4
+    assert pool.built + pool.rebuilt <= 2 * len(states) and pool.rebuilt > 0
+
+
 def test_rebuild_refuses_another_object_count_or_noise_and_leaves_the_world():
     from occrl.envs import Scene, ShelfWorld
 
