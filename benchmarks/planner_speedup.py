@@ -76,10 +76,8 @@ options = {"inference": sys.argv[2]} if sys.argv[2] != "torch" else {}
 method = make_method("hybrid-4x4", **options)
 seeds = [10_000_000 + i for i in range(tasks)]
 t = time.perf_counter()
-results = []
-for start in range(0, tasks, 16):  # occrl eval's chunks of 16 worlds, one planner for all
-    chunk = seeds[start : start + 16]
-    results += run_episodes(method.policy, task_scenes(2, chunk), chunk, 0.0, 16, method.primers, method.exploration)
+# batches of 16 worlds, as occrl eval runs them, one planner for all
+results = run_episodes(method.policy, task_scenes(2, seeds), seeds, 0.0, 16, method.primers, method.exploration)
 wall = time.perf_counter() - t
 decisions = [d.seconds for d in method.policy.decisions]
 print(json.dumps({"wall": wall, "decisions": decisions, "episodes": [[r.seed, bool(r.success), int(r.actions)] for r in results]}))

@@ -53,10 +53,8 @@ def main() -> None:
     episodes = {}
     for k in spreads:
         policy = NetPolicy(method.policy.net, stochastic=True, spread=k)
-        results = []
-        for start in range(0, len(seeds), 16):  # occrl eval's chunks of 16 worlds
-            chunk = slice(start, start + 16)
-            results += run_episodes(policy, scenes[chunk], seeds[chunk], 0.0, 16, method.primers, method.exploration)
+        # batches of 16 worlds, as occrl eval runs them
+        results = run_episodes(policy, scenes, seeds, 0.0, 16, method.primers, method.exploration)
         solved[k] = [r.success for r in results]
         episodes[str(k)] = [r.to_dict() for r in results]
     print(
@@ -69,8 +67,8 @@ def main() -> None:
         lo, hi = wilson_interval(n, args.tasks)
         only_k = sum(a and not b for a, b in zip(solved[k], solved[1.0]))
         only_1 = sum(b and not a for a, b in zip(solved[k], solved[1.0]))
-        versus = "-" if k == 1.0 else f"{only_k} / {only_1} | {mcnemar(only_k, only_1):.3f}"
-        print(f"| {k:g} | {100 * n / args.tasks:.1f} % | {100 * lo:.1f}-{100 * hi:.1f} | {versus if k != 1.0 else '- | -'} |")
+        versus = "- | -" if k == 1.0 else f"{only_k} / {only_1} | {mcnemar(only_k, only_1):.3f}"
+        print(f"| {k:g} | {100 * n / args.tasks:.1f} % | {100 * lo:.1f}-{100 * hi:.1f} | {versus} |")
     if args.out:
         Path(args.out).write_text(
             json.dumps({"weights": args.weights, "stage": args.stage, "tasks": args.tasks, "episodes": episodes}, indent=1)
