@@ -140,6 +140,8 @@ class HierarchicalPlanner(TensorDictModuleBase):
         extract_margin: how far past the retrieval line the extract plan pulls the target.
         place_radius: how close to the chosen free spot a rearranged object must end.
         time_limit: stop planning when an episode's planning time exceeds this (the task limit).
+        restart_seconds: a query restarts OMPL with a fresh tree after this long without a
+            solution (None: one run per query); see :class:`SimControlProblem`.
         shortcut: post-process plans by straight steering in the simulator.
         avoid_hiding: while the target is unlocated, Rearrange's plans keep out of the region
             where it may hide (:class:`HidingRegion`) and the free spot avoids it.
@@ -181,6 +183,7 @@ class HierarchicalPlanner(TensorDictModuleBase):
         extract_margin: float = 0.01,
         place_radius: float = 0.03,
         time_limit: float = 120.0,
+        restart_seconds: float | None = 0.75,
         shortcut: bool = True,
         avoid_hiding: bool = True,
         seed: int = 0,
@@ -206,6 +209,8 @@ class HierarchicalPlanner(TensorDictModuleBase):
                 raise ValueError(f"{name} must be in [0, 0.2] m, got {value}")
         if not time_limit > 0:
             raise ValueError(f"time_limit must be > 0 s, got {time_limit}")
+        if restart_seconds is not None and not restart_seconds > 0:
+            raise ValueError(f"restart_seconds must be None or > 0 s, got {restart_seconds}")
         if follow_tolerance is not None:
             if len(follow_tolerance) != 2 or not all(math.isfinite(v) and v > 0 for v in follow_tolerance):
                 raise ValueError(f"follow_tolerance must be None or (metres > 0, radians > 0), got {follow_tolerance!r}")
@@ -220,6 +225,7 @@ class HierarchicalPlanner(TensorDictModuleBase):
         self.extract_margin = float(extract_margin)
         self.place_radius = float(place_radius)
         self.time_limit = float(time_limit)
+        self.restart_seconds = None if restart_seconds is None else float(restart_seconds)
         self.shortcut = shortcut
         self.avoid_hiding = avoid_hiding
         self.seed = int(seed)
@@ -485,7 +491,7 @@ class HierarchicalPlanner(TensorDictModuleBase):
         t0 = time.perf_counter() if t0 is None else t0
         self._queries += 1
         seed = self.seed * 100_003 + self._queries
-        problem = SimControlProblem(world, goal, grip, self.planner, seed=seed, forbidden=forbidden)
+        problem = SimControlProblem(world, goal, grip, self.planner, restart_seconds=self.restart_seconds, seed=seed, forbidden=forbidden)
         seconds = min(self.plan_seconds, max(self.time_limit - ep.planning_seconds, 1e-3))
         plan = problem.solve(seconds, shortcut=self.shortcut, finish=finish)
         problem.close()

@@ -18,6 +18,7 @@ from occrl.baselines import HierarchicalPlanner  # noqa: E402
         (dict(extract_margin=-0.01), "extract_margin"),
         (dict(place_radius=0.5), "place_radius"),
         (dict(time_limit=0.0), "time_limit"),
+        (dict(restart_seconds=0.0), "restart_seconds"),
     ],
 )
 def test_bad_settings_are_refused(kwargs, match):
