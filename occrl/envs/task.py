@@ -59,12 +59,12 @@ def task_outcome(poses: np.ndarray, held: int | None, target_index: int, fallen:
         >>> task_outcome(poses, held=None, target_index=1).dropped  # object 0 is off the shelf
         (0,)
     """
-    retrieved = target_index >= 0 and held == target_index and poses[target_index, 1] < C.RETRIEVED_Y
+    rows = np.asarray(poses).tolist()  # Python floats: the same comparisons, without numpy's per-element cost
+    retrieved = target_index >= 0 and held == target_index and rows[target_index][1] < C.RETRIEVED_Y
     dropped = []
-    for i in range(len(poses)):
+    for i, (x, y, *_) in enumerate(rows):
         if i == target_index and held == i:
             continue  # the target on its way out in the gripper
-        x, y = poses[i, 0], poses[i, 1]
         if y < C.FRONT_EDGE_Y or y > C.SHELF_DEPTH + 0.05 or abs(x) > C.SHELF_HALF_WIDTH + 0.05 or (fallen is not None and fallen[i]):
             dropped.append(i)
     reward = C.STEP_REWARD + (C.DROP_PENALTY if dropped else 0.0)

@@ -34,7 +34,7 @@ from pymunk._chipmunk_cffi import ffi, lib
 
 from occrl.envs.pymunk2d.chipmunk_layout import layout_confirmed
 
-__all__ = ["AVAILABLE", "arbiter_head", "has_arbiters"]
+__all__ = ["AVAILABLE", "NULL", "arbiter_head", "has_arbiters"]
 
 # struct cpBody: velocity_func, position_func (pointers), m, m_inv, i, i_inv, cog (cpVect),
 # p, v, f (cpVect), a, w, t, transform (6 cpFloat), userData, v_bias (cpVect), w_bias, space,
@@ -44,6 +44,11 @@ _BODY_A = 112
 _BODY_USER_DATA = 184
 _BODY_SPACE = 216
 _BODY_ARBITER_LIST = 232
+
+
+NULL = ffi.NULL
+"""What an :func:`arbiter_head` holds when its body has no arbiter: ``head[0] != NULL`` is
+:func:`has_arbiters` inlined, for loops that cannot afford the call."""
 
 
 def arbiter_head(body: pymunk.Body):

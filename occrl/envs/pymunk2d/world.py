@@ -441,12 +441,14 @@ class ShelfWorld:
         a = np.asarray(action, dtype=float).reshape(-1)
         if a.shape != (C.ACTION_DIM,):
             raise ValueError(f"action must have {C.ACTION_DIM} entries (forward, lateral, rotation, gripper), got shape {a.shape}")
-        if not np.all(np.isfinite(a)):
-            raise ValueError(f"action contains NaN or inf: {a.tolist()}; allowed: finite numbers (clipped to [-1, 1])")
-        a = np.clip(a, -1.0, 1.0)
+        # Python floats from here on (the same IEEE values as numpy's, without its per-call cost)
+        a = a.tolist()
+        if not all(map(math.isfinite, a)):
+            raise ValueError(f"action contains NaN or inf: {a}; allowed: finite numbers (clipped to [-1, 1])")
+        a = [min(max(v, -1.0), 1.0) for v in a]
         if self.noise > 0.0:
             self._perturb()
-        self._actuate_fingers(close=bool(a[3] > 0.0))
+        self._actuate_fingers(close=a[3] > 0.0)
         self._cold_start()
 
         # Target pose of the control body (workspace-limited), reached at constant velocity.
@@ -467,13 +469,21 @@ class ShelfWorld:
         # Chipmunk's step called directly: pymunk's wrapper only adds bookkeeping for changes
         # made during a step, and this world makes none.
         space, step = self.space._space, _cp.cpSpaceStep
-        head = contact_list.arbiter_head(self.gripper) if fine > 1 and contact_list.AVAILABLE else None
-        for _ in range(ps.substeps):
-            if fine > 1 and self._gripper_touches(head):
-                for _ in range(fine):
-                    step(space, dt / fine)
-            else:
-                step(space, dt)
+        if fine > 1 and contact_list.AVAILABLE:  # the fast contact test, inlined (called every substep)
+            head, null = contact_list.arbiter_head(self.gripper), contact_list.NULL
+            for _ in range(ps.substeps):
+                if head[0] != null:  # contact_list.has_arbiters(head)
+                    for _ in range(fine):
+                        step(space, dt / fine)
+                else:
+                    step(space, dt)
+        else:
+            for _ in range(ps.substeps):
+                if fine > 1 and self._gripper_touches():
+                    for _ in range(fine):
+                        step(space, dt / fine)
+                else:
+                    step(space, dt)
         # Quasi-static: everything comes to rest between actions.
         self._bring_to_rest()
         if ps.measure_validity:
