@@ -95,6 +95,7 @@ def recreate(obs: TensorDictBase) -> RecreatedState:
     )
 
 
+AABB_MARGIN = 1e-6  # m: target_fits skips the separating-axis test for polygons whose boxes are further apart
 HELD_MIN_OPENING = 0.005  # m: closed fingers further apart than this stopped on something
 
 
@@ -130,7 +131,14 @@ def target_fits(state: RecreatedState, pose) -> bool:
     if lo[0] < -C.SHELF_HALF_WIDTH or hi[0] > C.SHELF_HALF_WIDTH or lo[1] < 0.0 or hi[1] > C.SHELF_DEPTH:
         return False
     others = state.polygons() + [transform_points(p, state.gripper_pose) for p in gripper_polygons(state.opening)]
-    return not any(polygons_overlap(poly, o) for o in others)
+    # the separating-axis test only where the bounding boxes come within AABB_MARGIN (boxes
+    # further apart cannot overlap: the test would say so too, the margin keeps its rounding out)
+    return not any(polygons_overlap(poly, o) for o in others if _boxes_meet(lo, hi, o))
+
+
+def _boxes_meet(lo: np.ndarray, hi: np.ndarray, polygon: np.ndarray) -> bool:
+    """Whether the box [lo, hi] and ``polygon``'s bounding box are within AABB_MARGIN of each other."""
+    return bool((polygon.min(0) - hi <= AABB_MARGIN).all() and (lo - polygon.max(0) <= AABB_MARGIN).all())
 
 
 def with_target(state: RecreatedState, pose) -> RecreatedState:

@@ -189,3 +189,24 @@ def test_planning_several_worlds_together_decides_as_one_world_at_a_time():
         rhp_batched(
             net, [together.decisions[-1].roots[0].state] * 2, (torch.zeros(3, 1, 128), torch.zeros(3, 1, 128)), torch.randn(2, 1, 1, 4)
         )
+
+
+def test_target_fits_skips_only_polygons_whose_boxes_are_apart():
+    # the box pre-test changes no answer of the separating-axis test over every known polygon
+    from occrl.envs.geometry import polygons_overlap, transform_points
+    from occrl.envs.shelf_geometry import gripper_polygons
+    from occrl.envs.world_constants import SHELF_DEPTH, SHELF_HALF_WIDTH
+
+    env = make_env(batch_size=4, stage=2, seed=3, heatmap_target=False)
+    rng = np.random.default_rng(0)
+    answers = []
+    for b in range(4):
+        state = recreate(env.reset()[b])
+        others = state.polygons() + [transform_points(p, state.gripper_pose) for p in gripper_polygons(state.opening)]
+        for x, y, th in rng.uniform([-SHELF_HALF_WIDTH, 0.0, -np.pi], [SHELF_HALF_WIDTH, SHELF_DEPTH, np.pi], (150, 3)):
+            poly = transform_points(state.target_vertices, (x, y, th))
+            inside = poly.min(0)[0] >= -SHELF_HALF_WIDTH and poly.max(0)[0] <= SHELF_HALF_WIDTH and poly.min(0)[1] >= 0.0 and poly.max(0)[1] <= SHELF_DEPTH
+            full = inside and not any(polygons_overlap(poly, o) for o in others)
+            answers.append(full)
+            assert target_fits(state, (x, y, th)) == full
+    assert any(answers) and not all(answers)
