@@ -8,6 +8,8 @@ one category, read from the env's privileged ground truth (analysis only; no met
 
 - dropped: an object fell off the front edge;
 - never detected: the target was never reported by perception;
+  (and whether its centre was ever inside the camera's field of view: a target that never was is
+  one the search never turned to, such as one in a front corner beside the gripper's start);
 - detected, never held: seen at some step, never between the fingers;
 - held, not out: grasped at some step but not pulled out within 50 actions.
 
@@ -24,8 +26,10 @@ from pathlib import Path
 
 import numpy as np
 
+from occrl.envs import world_constants as C
 from occrl.eval.methods import make_method
 from occrl.eval.runner import rollout_tasks
+from occrl.pretrained import weights_file
 
 
 def categorise(td) -> dict:
@@ -35,6 +39,12 @@ def categorise(td) -> dict:
     held = td["next", "privileged", "target_held"][0, :, 0].numpy()
     dropped = td["next", "dropped"][0, :, 0].numpy()
     outside = (td["gripper_pose"][0, :, 1] < 0).numpy()
+    # the target's centre within the camera's field of view (the camera at the gripper, looking
+    # along its +y axis), occluded or not
+    gripper = td["gripper_pose"][0].numpy().astype(float)
+    target = td["privileged", "target_pose"][0].numpy().astype(float)
+    bearing = np.arctan2(target[:, 1] - gripper[:, 1], target[:, 0] - gripper[:, 0]) - (gripper[:, 2] + np.pi / 2)
+    in_view = np.abs((bearing + np.pi) % (2 * np.pi) - np.pi) <= C.CAMERA_FOV / 2
     if dropped.any():
         category = "dropped"
     elif not detected.any():
@@ -49,13 +59,14 @@ def categorise(td) -> dict:
         "detected_share": float(detected.mean()),
         "outside_share": float(outside.mean()),
         "target_depth_m": float(td["privileged", "target_pose"][0, 0, 1]),
+        "ever_in_view": bool(in_view.any()),
     }
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("result", type=Path, help="an `occrl eval --out` JSON file (2D world)")
-    parser.add_argument("--weights", default=None, help="the --weights the evaluation used (default: shipped net)")
+    parser.add_argument("--weights", default=None, help="the --weights the evaluation used: a file or a shipped network's name (default: occnet)")
     parser.add_argument("--limit", type=int, default=None, help="replay only the first N failures")
     args = parser.parse_args()
 
@@ -63,21 +74,25 @@ def main() -> None:
     if d.get("world", "pymunk") != "pymunk" or d.get("objects"):
         raise SystemExit("only evaluations of the 2D world with the stage's own object counts can be replayed here")
     failed = [e["seed"] for e in d["episodes"] if not e["success"]][: args.limit]
-    method = make_method(d["method"], args.weights)
+    method = make_method(d["method"], weights_file(args.weights))
     counts: Counter = Counter()
     outside = []
+    never_in_view = 0
     for seed in failed:
         facts = categorise(rollout_tasks(method, d["stage"], [seed], d["noise"]))
         counts[facts["category"]] += 1
         outside.append(facts["outside_share"])
+        never_in_view += facts["category"] == "never detected" and not facts["ever_in_view"]
         print(
             f"seed {seed}: {facts['category']:22s} first seen at step {facts['first_detected']}, seen on "
-            f"{facts['detected_share']:.0%} of steps, gripper outside on {facts['outside_share']:.0%}, target depth {facts['target_depth_m']:.2f} m",
+            f"{facts['detected_share']:.0%} of steps, gripper outside on {facts['outside_share']:.0%}, target depth {facts['target_depth_m']:.2f} m"
+            + ("" if facts["ever_in_view"] else ", never in the field of view"),
             flush=True,
         )
     print(f"{d['method']} stage {d['stage']}: {len(failed)} failures replayed: " + ", ".join(f"{k} {v}" for k, v in counts.most_common()))
     outside = np.array(outside)
     print(f"gripper outside the shelf on >= 90 % of the steps in {(outside >= 0.9).sum()} of {len(failed)} failures")
+    print(f"never detected and never in the camera's field of view: {never_in_view} of {counts['never detected']}")
 
 
 if __name__ == "__main__":

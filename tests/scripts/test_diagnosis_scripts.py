@@ -53,6 +53,15 @@ def test_failure_categories_replays_a_failed_scripted_episode(tmp_path):
     assert "seed 10000000:" in out and "scripted stage 1: 1 failures replayed" in out
 
 
+def test_failure_categories_finds_a_target_the_camera_never_faced(tmp_path):
+    # held-out stage-2 task 10000029: the target stands in a front corner beside the gripper's
+    # start; the planner on occnet-takeover never turns to it (results/diagnosis/strips/)
+    path = _result(tmp_path / "r.json", "hybrid-4x4", 2, [True] * 29 + [False])
+    out = _run("scripts/failure_categories.py", str(path), "--weights", "occnet-takeover")
+    assert "seed 10000029: never detected" in out and "never in the field of view" in out
+    assert "never detected and never in the camera's field of view: 1 of 1" in out
+
+
 def test_planner_decisions_prints_every_decision():
     out = _run("scripts/planner_decisions.py", "--method", "hybrid-2x2", "--stage", "1", "--seed", "3", "--steps", "2")
     assert out.count("step ") == 2 and out.count("    root 0: returns") == 2
