@@ -66,7 +66,9 @@ def categorise(td) -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("result", type=Path, help="an `occrl eval --out` JSON file (2D world)")
-    parser.add_argument("--weights", default=None, help="the --weights the evaluation used: a file or a shipped network's name (default: occnet)")
+    parser.add_argument(
+        "--weights", default=None, help="the --weights the evaluation used: a file or a shipped network's name (default: occnet)"
+    )
     parser.add_argument("--limit", type=int, default=None, help="replay only the first N failures")
     args = parser.parse_args()
 
