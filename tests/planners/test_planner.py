@@ -205,7 +205,12 @@ def test_target_fits_skips_only_polygons_whose_boxes_are_apart():
         others = state.polygons() + [transform_points(p, state.gripper_pose) for p in gripper_polygons(state.opening)]
         for x, y, th in rng.uniform([-SHELF_HALF_WIDTH, 0.0, -np.pi], [SHELF_HALF_WIDTH, SHELF_DEPTH, np.pi], (150, 3)):
             poly = transform_points(state.target_vertices, (x, y, th))
-            inside = poly.min(0)[0] >= -SHELF_HALF_WIDTH and poly.max(0)[0] <= SHELF_HALF_WIDTH and poly.min(0)[1] >= 0.0 and poly.max(0)[1] <= SHELF_DEPTH
+            inside = (
+                poly.min(0)[0] >= -SHELF_HALF_WIDTH
+                and poly.max(0)[0] <= SHELF_HALF_WIDTH
+                and poly.min(0)[1] >= 0.0
+                and poly.max(0)[1] <= SHELF_DEPTH
+            )
             full = inside and not any(polygons_overlap(poly, o) for o in others)
             answers.append(full)
             assert target_fits(state, (x, y, th)) == full

@@ -46,9 +46,9 @@ _BODY_SPACE = 216
 _BODY_ARBITER_LIST = 232
 
 
-NULL = ffi.NULL
-"""What an :func:`arbiter_head` holds when its body has no arbiter: ``head[0] != NULL`` is
-:func:`has_arbiters` inlined, for loops that cannot afford the call."""
+#: What an :func:`arbiter_head` holds when its body has no arbiter: ``head[0] != NULL`` is
+#: :func:`has_arbiters` inlined, for loops that cannot afford the call.
+NULL: object = ffi.NULL
 
 
 def arbiter_head(body: pymunk.Body):
