@@ -8,6 +8,7 @@ detections enter (see :func:`occrl.envs.observation_from_detections`).
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import cached_property
 from typing import Sequence
 
 import numpy as np
@@ -56,6 +57,14 @@ class RecreatedState:
 
     def polygons(self) -> list[np.ndarray]:
         return [o.world_vertices() for o in self.objects]
+
+    @cached_property
+    def obstacle_outlines(self) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """What a hypothesised target must not overlap: each known object's and gripper part's
+        shelf-frame outline with its bounding box's corners (outline, lo, hi); computed once per
+        state (:func:`target_fits` tries many poses against it)."""
+        outlines = self.polygons() + [transform_points(p, self.gripper_pose) for p in gripper_polygons(self.opening)]
+        return [(p, p.min(0), p.max(0)) for p in outlines]
 
 
 def recreate(obs: TensorDictBase) -> RecreatedState:
@@ -130,15 +139,13 @@ def target_fits(state: RecreatedState, pose) -> bool:
     lo, hi = poly.min(0), poly.max(0)
     if lo[0] < -C.SHELF_HALF_WIDTH or hi[0] > C.SHELF_HALF_WIDTH or lo[1] < 0.0 or hi[1] > C.SHELF_DEPTH:
         return False
-    others = state.polygons() + [transform_points(p, state.gripper_pose) for p in gripper_polygons(state.opening)]
     # the separating-axis test only where the bounding boxes come within AABB_MARGIN (boxes
     # further apart cannot overlap: the test would say so too, the margin keeps its rounding out)
-    return not any(polygons_overlap(poly, o) for o in others if _boxes_meet(lo, hi, o))
-
-
-def _boxes_meet(lo: np.ndarray, hi: np.ndarray, polygon: np.ndarray) -> bool:
-    """Whether the box [lo, hi] and ``polygon``'s bounding box are within AABB_MARGIN of each other."""
-    return bool((polygon.min(0) - hi <= AABB_MARGIN).all() and (lo - polygon.max(0) <= AABB_MARGIN).all())
+    return not any(
+        polygons_overlap(poly, other)
+        for other, other_lo, other_hi in state.obstacle_outlines
+        if (other_lo - hi <= AABB_MARGIN).all() and (lo - other_hi <= AABB_MARGIN).all()
+    )
 
 
 def with_target(state: RecreatedState, pose) -> RecreatedState:
