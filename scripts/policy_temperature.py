@@ -16,20 +16,13 @@ from __future__ import annotations
 
 import argparse
 import json
-from math import comb
 from pathlib import Path
 
 from occrl.baselines import NetPolicy
 from occrl.envs.episodes import run_episodes, task_scenes
 from occrl.eval.methods import make_method
-from occrl.eval.runner import EVAL_SEED_BASE, wilson_interval
+from occrl.eval.runner import EVAL_SEED_BASE, mcnemar_p, wilson_interval
 from occrl.pretrained import weights_file
-
-
-def mcnemar(only_a: int, only_b: int) -> float:
-    """Exact two-sided McNemar p-value from the discordant counts."""
-    n, k = only_a + only_b, min(only_a, only_b)
-    return min(1.0, 2 * sum(comb(n, i) for i in range(k + 1)) / 2**n) if n else 1.0
 
 
 def main() -> None:
@@ -67,7 +60,7 @@ def main() -> None:
         lo, hi = wilson_interval(n, args.tasks)
         only_k = sum(a and not b for a, b in zip(solved[k], solved[1.0]))
         only_1 = sum(b and not a for a, b in zip(solved[k], solved[1.0]))
-        versus = "- | -" if k == 1.0 else f"{only_k} / {only_1} | {mcnemar(only_k, only_1):.3f}"
+        versus = "- | -" if k == 1.0 else f"{only_k} / {only_1} | {mcnemar_p(only_k, only_1):.3f}"
         print(f"| {k:g} | {100 * n / args.tasks:.1f} % | {100 * lo:.1f}-{100 * hi:.1f} | {versus} |")
     if args.out:
         Path(args.out).write_text(

@@ -21,7 +21,7 @@ from occrl.envs import world_constants as C
 from occrl.envs.episodes import EpisodeResult, run_episodes, seeded_task_env, task_scenes
 
 # EpisodeResult, run_episodes, task_scenes, seeded_task_env live in occrl.envs.episodes (importable here too)
-__all__ = ["rollout_tasks", "run_tasks", "summarize", "wilson_interval", "EVAL_SEED_BASE"]
+__all__ = ["rollout_tasks", "run_tasks", "summarize", "wilson_interval", "mcnemar_p", "EVAL_SEED_BASE"]
 
 logger = logging.getLogger(__name__)
 
@@ -44,6 +44,21 @@ def wilson_interval(successes: int, n: int, z: float = 1.96) -> tuple[float, flo
     half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
     # the interval always holds the rate itself (at 0 and 1 rounding would put it 1e-16 outside)
     return (max(0.0, min(p, centre - half)), min(1.0, max(p, centre + half)))
+
+
+def mcnemar_p(only_a: int, only_b: int) -> float:
+    """Exact two-sided McNemar p-value of two methods on the same tasks, from the discordant
+    counts: the tasks only ``a`` solved and those only ``b`` solved.
+
+    Examples:
+        >>> from occrl.eval.runner import mcnemar_p
+        >>> round(mcnemar_p(22, 10), 3), mcnemar_p(5, 5), mcnemar_p(0, 0)
+        (0.05, 1.0, 1.0)
+    """
+    if only_a < 0 or only_b < 0:
+        raise ValueError(f"discordant counts must be >= 0, got {only_a} and {only_b}")
+    n, k = only_a + only_b, min(only_a, only_b)
+    return min(1.0, 2 * sum(math.comb(n, i) for i in range(k + 1)) / 2**n) if n else 1.0
 
 
 def rollout_tasks(method, stage: int, seeds: Sequence[int], noise: float = 0.0, steps: int = C.MAX_EPISODE_STEPS) -> TensorDictBase:

@@ -214,7 +214,7 @@ class HybridPlanner(TensorDictModuleBase):
     def decide(self, obs: TensorDictBase, heatmap: np.ndarray, hidden) -> Decision:
         """One planning step for one world (observation without batch dims)."""
         t0 = time.perf_counter()
-        roots = self._roots(obs, heatmap)
+        roots = self.roots(obs, heatmap)
         noise = torch.randn(len(roots), self.m, self.h, C.ACTION_DIM, generator=self.generator)
         states = [r.state for r in roots]
         if self.batched:
@@ -232,7 +232,7 @@ class HybridPlanner(TensorDictModuleBase):
         t0 = time.perf_counter()
         roots_per_world, noise = [], []
         for obs, heatmap in zip(observations, heatmaps):
-            roots = self._roots(obs, heatmap)
+            roots = self.roots(obs, heatmap)
             roots_per_world.append(roots)
             noise.append(torch.randn(len(roots), self.m, self.h, C.ACTION_DIM, generator=self.generator))
         counts = [len(roots) for roots in roots_per_world]
@@ -255,8 +255,10 @@ class HybridPlanner(TensorDictModuleBase):
             for roots, heatmap, start, stop in zip(roots_per_world, heatmaps, bounds[:-1], bounds[1:])
         ]
 
-    def _roots(self, obs: TensorDictBase, heatmap: np.ndarray) -> list[Root]:
-        """The weighted root states of one observation (Alg. 1's state generation)."""
+    def roots(self, obs: TensorDictBase, heatmap: np.ndarray) -> list[Root]:
+        """The weighted root states of one observation (Alg. 1's state generation): the recreated
+        state, with the target at the heat-map's peaks while it is not detected. A subclass may
+        plan from other roots (``scripts/oracle_roots.py`` plans from the true state, a diagnosis)."""
         roots = generate_states(heatmap, recreate(obs), self.max_roots)
         if self.limited:
             roots = [max(roots, key=lambda r: r.weight)]

@@ -6,6 +6,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
@@ -83,3 +85,44 @@ def test_perception_identity_passes_on_itself_and_fails_on_a_changed_render(tmp_
         cwd=ROOT,
     )
     assert proc.returncode == 1 and "differs" in proc.stdout
+
+
+def test_oracle_roots_plan_in_a_world_that_steps_as_the_real_one():
+    # the true-state root holds every object, hidden ones included, and its imagined world
+    # steps as the execution world does at noise 0; the true-target root adds only the target
+    import numpy as np
+    from torchrl.envs.utils import step_mdp
+
+    sys.path.insert(0, str(ROOT / "scripts"))
+    try:
+        from oracle_roots import OracleRootsPlanner
+    finally:
+        sys.path.remove(str(ROOT / "scripts"))
+    from occrl.envs.episodes import seeded_task_env, task_scenes
+    from occrl.modules import make_occnet
+    from occrl.planners import make_world, recreate
+
+    net = make_occnet("paper").eval()
+    planner = OracleRootsPlanner(net, "state", m=2, h=2)
+    seed = 10_000_002  # stage 2: 9 objects, 3 detected at the start, the target not among them
+    env = seeded_task_env(planner, task_scenes(2, [seed]), [seed], 0.0, [net.make_primer()], False, "pymunk")
+    td = env.reset()
+    obs = td[0]
+    present = obs["privileged", "object_present"].numpy().astype(bool)
+    (root,) = planner.roots(obs, np.zeros((64, 64)))
+    assert len(root.state.objects) == present.sum() > len(recreate(obs).objects)
+    assert sum(o.is_target for o in root.state.objects) == 1
+    (target_root,) = OracleRootsPlanner(net, "target", m=2, h=2).roots(obs, np.zeros((64, 64)))
+    assert len(target_root.state.objects) == len(recreate(obs).objects) + 1
+    for _ in range(3):
+        (root,) = planner.roots(td[0], np.zeros((64, 64)))
+        world = make_world(root.state)
+        td = env.step(planner(td))
+        world.step(td["action"][0].numpy().astype(float))
+        nxt = td["next"][0]
+        alive = nxt["privileged", "object_present"].numpy().astype(bool)
+        assert np.abs(world.object_poses() - nxt["privileged", "object_pose"].numpy()[alive]).max() < 1e-6
+        assert np.abs(world.gripper_pose() - nxt["gripper_pose"].numpy()).max() < 1e-6
+        td = step_mdp(td)
+    with pytest.raises(ValueError, match="which must be"):
+        OracleRootsPlanner(net, "heatmap")

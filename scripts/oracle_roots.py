@@ -1,0 +1,123 @@
+"""Is it the planner's model of the world or its network that holds the hybrid planner back?
+
+    python scripts/oracle_roots.py --stage 2 --tasks 200 --roots state [--weights W] [--baseline F.json] [--out F.json]
+
+The hybrid 4x4 planner (paper Alg. 1-2, the network's policy and value unchanged) plans from
+roots that it could not know, on the README's held-out tasks (the planner reseeded per task as
+`occrl eval` does):
+
+- ``--roots state``: one root, the true state: every object on the shelf at its true pose and
+  shape, hidden ones included, and the target where it is. At noise 0 the roll-outs then
+  simulate the real future exactly (up to the policy's sampling); what fails is the policy the
+  roll-outs follow and the value that scores them.
+- ``--roots target``: the recreated state (detected objects only) with the target at its true
+  pose while it is not detected, one root: a perfect heat-map; the objects the camera has not
+  seen stay missing from the roll-outs, as in the planner.
+
+Against the planner's own episodes on the same tasks (``--baseline``, an `occrl eval --out`
+file) it prints the success of both, the tasks only one solved and the exact McNemar p-value.
+A diagnosis for issue 16 (docs/decisions.md); it reads ``"privileged"`` (the true state), so
+it is analysis, never a method.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import numpy as np
+import torch
+from tensordict import TensorDictBase
+from tqdm import tqdm
+
+from occrl.envs import SceneObject
+from occrl.envs.episodes import run_episodes, task_scenes
+from occrl.eval.methods import make_method
+from occrl.eval.runner import EVAL_SEED_BASE, mcnemar_p, summarize
+from occrl.planners import HybridPlanner, RecreatedState, Root, recreate, with_target
+from occrl.pretrained import weights_file
+
+
+class OracleRootsPlanner(HybridPlanner):
+    """The hybrid planner planning from privileged roots (``which``: ``"state"`` or ``"target"``)."""
+
+    def __init__(self, net, which: str, **kwargs) -> None:
+        super().__init__(net, **kwargs)
+        if which not in ("state", "target"):
+            raise ValueError(f"which must be 'state' or 'target', got {which!r}")
+        self.which = which
+        self.in_keys = [*self.in_keys, "privileged"]
+
+    def roots(self, obs: TensorDictBase, heatmap: np.ndarray) -> list[Root]:
+        state = recreate(obs)
+        priv = obs.get("privileged")
+        slot = int(priv.get("target_slot").reshape(-1)[0])
+        poses = priv.get("object_pose").cpu().numpy().astype(float)
+        if self.which == "target":
+            if state.target_detected:
+                return [Root(state, 1.0)]
+            return [Root(with_target(state, tuple(poses[slot])), 1.0)]
+        present = priv.get("object_present").cpu().numpy().astype(bool)
+        vertices = priv.get("object_vertices").cpu().numpy().astype(float)
+        counts = priv.get("object_num_vertices").cpu().numpy()
+        # rendering tells only the target from the rest: any other type id will do for clutter
+        clutter_type = state.target_type + 1
+        objects = tuple(
+            SceneObject(state.target_type if k == slot else clutter_type, vertices[k, : counts[k]], tuple(poses[k]), k == slot)
+            for k in np.flatnonzero(present)
+        )
+        # a held object is between the fingers at its true pose: the imagined world grasps it
+        true_state = RecreatedState(objects, state.gripper_pose, state.opening, state.closed, state.target_type, state.target_vertices)
+        return [Root(true_state, 1.0)]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--stage", type=int, default=2, choices=(1, 2, 3))
+    parser.add_argument("--tasks", type=int, default=200)
+    parser.add_argument("--roots", default="state", choices=("state", "target"))
+    parser.add_argument("--weights", default=None, help="the planner's network: a weights file or a shipped name (default: occnet)")
+    parser.add_argument("--baseline", default=None, help="an `occrl eval --out` file of hybrid 4x4 on the same tasks")
+    parser.add_argument("--out", default=None)
+    args = parser.parse_args()
+    torch.set_num_threads(1)
+    method = make_method("hybrid-4x4", weights_file(args.weights))
+    planner = OracleRootsPlanner(method.policy.net, args.roots, m=4, h=4)
+    seeds = list(range(EVAL_SEED_BASE, EVAL_SEED_BASE + args.tasks))
+    t0 = time.time()
+    results = []
+    # one world per task, as `occrl eval` runs the planners
+    for seed in tqdm(seeds, desc=f"hybrid 4x4 from the true {args.roots}", unit="task"):
+        results += run_episodes(planner, task_scenes(args.stage, [seed]), [seed], 0.0, 1, method.primers)
+    summary = summarize(results)
+    lo, hi = summary["success_ci95"]
+    print(
+        f"hybrid 4x4 from the true {args.roots}, stage {args.stage}: {100 * summary['success_rate']:.1f} % "
+        f"({100 * lo:.1f}-{100 * hi:.1f}) of {len(results)} tasks, {summary['dropped']} dropped; {time.time() - t0:.0f} s"
+    )
+    report = {"stage": args.stage, "roots": args.roots, "weights": args.weights or "occnet", **summary}
+    report["episodes"] = [
+        {"seed": r.seed, "success": bool(r.success), "actions": int(r.actions), "dropped": bool(r.dropped)} for r in results
+    ]
+    if args.baseline:
+        base = {e["seed"]: e["success"] for e in json.loads(open(args.baseline).read())["episodes"]}
+        both = [(base[r.seed], bool(r.success)) for r in results if r.seed in base]
+        only_oracle = sum(1 for b, o in both if o and not b)
+        only_planner = sum(1 for b, o in both if b and not o)
+        own = 100 * np.mean([b for b, _ in both])
+        print(
+            f"the planner's own roots on the same {len(both)} tasks: {own:.1f} %; solved only from the true {args.roots}: "
+            f"{only_oracle}, only by the planner: {only_planner} (McNemar p = {mcnemar_p(only_oracle, only_planner):.3f})"
+        )
+        report["baseline"] = {"file": args.baseline, "success_rate": own / 100, "only_oracle": only_oracle, "only_planner": only_planner}
+    if args.out:
+        with open(args.out, "w") as f:
+            json.dump(report, f, indent=1)
+
+
+if __name__ == "__main__":
+    main()
