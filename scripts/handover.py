@@ -1,6 +1,6 @@
 """Where does the hybrid planner lose stage-2 tasks: in the search, or in the retrieval?
 
-    python scripts/handover.py --stage 2 --tasks 200 [--weights W.pt] [--to scripted|clearing|hierarchical] [--out F.json]
+    python scripts/handover.py --stage 2 --tasks 200 [--weights W.pt] [--to scripted|clearing|clearing-observed|hierarchical] [--out F.json]
 
 The hybrid 4x4 planner acts from the start of each held-out task (the README's task seeds; the
 planner reseeded per task as `occrl eval` does, so up to the hand-over the episodes are those of
@@ -8,7 +8,8 @@ the evaluation); from the first step at which perception reports the target, a r
 instead until the episode ends (``occrl.baselines.handover.SearchThenRetrieve``): the privileged scripted retriever (``--to scripted``: it knows where the target is,
 so it measures how often the retrieval from the planner's hand-over states can be done at all by
 a direct reach, grasp and pull), the privileged clearing retriever (``--to clearing``: it first
-carries the objects in the target's corridor aside) or the hierarchical planner (``--to hierarchical``: observations
+carries the objects in the target's corridor aside), the same from the observations alone (``--to
+clearing-observed``: the detected objects and the target's last detected outline) or the hierarchical planner (``--to hierarchical``: observations
 only, its OMPL reach / rearrange / extract, as `occrl eval` runs it). The retriever's episode
 starts at the hand-over (its first observation is flagged ``is_init``). The planner
 keeps deciding underneath so that its LSTM state follows the real history (its actions are
@@ -33,6 +34,7 @@ from tqdm import tqdm
 
 from occrl.eval.methods import make_method
 from occrl.baselines.handover import SearchThenRetrieve
+from occrl.baselines.observed_clearing import ObservedClearingRetriever
 from occrl.envs.episodes import run_episodes, task_scenes
 from occrl.eval.runner import EVAL_SEED_BASE, summarize
 from occrl.pretrained import weights_file
@@ -43,14 +45,14 @@ def main() -> None:
     parser.add_argument("--stage", type=int, default=2)
     parser.add_argument("--tasks", type=int, default=200)
     parser.add_argument("--weights", default=None, help="the planner's network: a weights file or a shipped name (default: occnet)")
-    parser.add_argument("--to", default="scripted", choices=("scripted", "clearing", "hierarchical"))
+    parser.add_argument("--to", default="scripted", choices=("scripted", "clearing", "clearing-observed", "hierarchical"))
     parser.add_argument("--baseline", default=None, help="an `occrl eval --out` file of hybrid 4x4 on the same tasks")
     parser.add_argument("--out", default=None)
     args = parser.parse_args()
     torch.set_num_threads(1)
     planner = make_method("hybrid-4x4", weights_file(args.weights))
-    retriever = make_method(args.to)
-    policy = SearchThenRetrieve(planner.policy, retriever.policy)
+    retriever = ObservedClearingRetriever() if args.to == "clearing-observed" else make_method(args.to).policy
+    policy = SearchThenRetrieve(planner.policy, retriever)
     seeds = list(range(EVAL_SEED_BASE, EVAL_SEED_BASE + args.tasks))
     t0 = time.time()
     results, handed = [], []

@@ -65,7 +65,7 @@ from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
 
 from occrl.envs import world_constants as C
-from occrl.envs.geometry import polygons_overlap, transform_points
+from occrl.envs.geometry import transform_points
 from occrl.envs.perception import OBSERVATION_KEYS
 from occrl.envs.scene import SceneObject
 from occrl.envs.shelf_geometry import gripper_polygons
@@ -75,12 +75,11 @@ from occrl.planners.recreate import RecreatedState, make_world
 from occrl.baselines.hiding import HidingRegion
 from occrl.baselines.goals import GoalSpec, HoldGoal, ReachGoal, grasp_poses
 from occrl.baselines.kinodynamic import PlanResult, SimControlProblem
-from occrl.baselines.primitives import KnownObject, closest_object, free_spot, move_out
+from occrl.baselines.primitives import KnownObject, closest_object, current_objects, free_spot, move_out
 from occrl.baselines.motion import (
     CLOSE,
     OPEN,
     OUT_Y,
-    STALE_OVERLAP,
     is_at,
     is_inside_shelf,
     steer_action,
@@ -356,17 +355,7 @@ class HierarchicalPlanner(TensorDictModuleBase):
         opening = float(obs.get("gripper_opening").reshape(-1)[0])
         closed = bool(obs.get("gripper_closed").reshape(-1)[0])
         gripper = [transform_points(p, pose) for p in gripper_polygons(opening)]
-        kept: list[tuple[KnownObject, np.ndarray]] = []
-        for k in sorted(ep.memory.values(), key=lambda k: -k.seen_step):  # freshest first
-            poly = transform_points(k.vertices, k.pose)
-            fresh = k.seen_step == ep.step
-            # pymunk lets bodies in contact overlap by a few mm: only deeper overlaps mean stale
-            if any(polygons_overlap(poly, q, clearance=-STALE_OVERLAP) for _, q in kept):
-                continue
-            if not fresh and any(polygons_overlap(poly, g, clearance=-STALE_OVERLAP) for g in gripper):
-                continue
-            kept.append((k, poly))
-        kept.sort(key=lambda kp: kp[0].type_id)
+        kept = current_objects(ep.memory.values(), ep.step, gripper)
         objects = tuple(SceneObject(k.type_id, k.vertices, tuple(float(v) for v in k.pose), k.is_target) for k, _ in kept)
         tv = obs.get("target_vertices").cpu().numpy().astype(float)[: int(obs.get("target_num_vertices").reshape(-1)[0])]
         target_type = int(obs.get("target_type").reshape(-1)[0])

@@ -14,7 +14,7 @@ __all__ = ["TrainConfig", "TRAIN_PRESETS", "SETTING_CHOICES", "get_train_config"
 SETTING_CHOICES: dict[str, tuple[str, ...]] = {
     "collector": ("single", "multi", "ray"),
     "optimizer": ("rmsprop", "adam"),
-    "imitation_teacher": ("scripted", "clearing", "hybrid", "hybrid-acting", "hierarchical"),
+    "imitation_teacher": ("scripted", "clearing", "clearing-observed", "hybrid", "hybrid-acting", "hierarchical"),
     "promotion": ("learner", "hybrid"),
     "teacher_inference": ("torch", "onnxruntime"),
     "retrieval_labels": ("planner", "scripted"),
@@ -98,7 +98,10 @@ class TrainConfig:
     """Who labels the learner's frames: "scripted" (the privileged scripted retriever), "clearing"
     (the privileged clearing retriever, which acts in a share beta of the episodes as "scripted"
     does, but labels only the frames from the first sight of the target on, so the learner keeps
-    its own search: "expert_weight"), "hybrid" (the
+    its own search: "expert_weight"), "clearing-observed" (the same retriever deciding from the
+    observations alone, occrl.baselines.observed_clearing: the learner searches; from the first
+    sight of the target the teacher acts in a share beta of the episodes and labels the frames of
+    all; collector "single"), "hybrid" (the
     hybrid 4x4 planner on the current network labels, the learner acts: expert iteration),
     "hybrid-acting" (that planner acts and labels, so the value learns the planner's own returns;
     collector "single") or "hierarchical" (the OMPL hierarchical planner, observations only, acts in

@@ -104,6 +104,11 @@ class OnlineTeacherPolicy(ExpertMixPolicy):
     hierarchical planner with ``follow_tolerance`` (it re-plans when the learner leaves its plan);
     the teacher's memory lives in this process, so collect with a single-process collector.
 
+    ``from_first_sight``: in its drawn episodes the teacher acts only from the first step whose
+    observation shows the target (:func:`target_in_view`) on, the learner before (for a teacher
+    that retrieves but does not search, such as
+    :class:`~occrl.baselines.observed_clearing.ObservedClearingRetriever`).
+
     ``label_kinds``: label only the steps where the teacher's action is of these kinds (its
     ``last_action_kinds``, e.g. ``("reach", "extract")``: the teacher teaches the retrieval of a
     located target and leaves the search to the learner); ``"expert_weight"`` is 1 on those steps
@@ -124,7 +129,12 @@ class OnlineTeacherPolicy(ExpertMixPolicy):
     """
 
     def __init__(
-        self, policy: TensorDictModuleBase, teacher: TensorDictModuleBase, beta: float = 0.0, label_kinds: tuple[str, ...] | None = None
+        self,
+        policy: TensorDictModuleBase,
+        teacher: TensorDictModuleBase,
+        beta: float = 0.0,
+        label_kinds: tuple[str, ...] | None = None,
+        from_first_sight: bool = False,
     ) -> None:
         super().__init__(policy, teacher, beta)
         if "privileged" in teacher.in_keys:
@@ -134,7 +144,9 @@ class OnlineTeacherPolicy(ExpertMixPolicy):
         self.label_kinds = None if label_kinds is None else tuple(label_kinds)
         self.in_keys = list(dict.fromkeys(list(policy.in_keys) + list(teacher.in_keys)))
         self.out_keys = list(policy.out_keys) + ["expert_action", "teacher_acts"] + (["expert_weight"] if label_kinds is not None else [])
+        self.from_first_sight = bool(from_first_sight)
         self._teacher_acts: torch.Tensor | None = None  # per world: the teacher acts in this episode
+        self._seen: torch.Tensor | None = None  # per world: the target has been in view in this episode
 
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
         tensordict = self.policy(tensordict)
@@ -144,7 +156,13 @@ class OnlineTeacherPolicy(ExpertMixPolicy):
             self._teacher_acts = torch.zeros(is_init.shape, dtype=torch.bool)
         draw = torch.rand(is_init.shape) < self.beta
         self._teacher_acts = torch.where(is_init, draw, self._teacher_acts)
-        acts = self._teacher_acts.unsqueeze(-1)
+        acts = self._teacher_acts
+        if self.from_first_sight:  # a teacher that does not search takes over once the target is seen
+            in_view = target_in_view(tensordict).reshape(is_init.shape)
+            seen_before = torch.zeros_like(in_view) if self._seen is None or self._seen.shape != in_view.shape else self._seen
+            self._seen = in_view | (seen_before & ~is_init)
+            acts = acts & self._seen
+        acts = acts.unsqueeze(-1)
         tensordict.set("expert_action", label)
         if self.label_kinds is not None:
             kinds = self.expert.last_action_kinds

@@ -29,6 +29,7 @@ import torch
 from tensordict import TensorDictBase
 
 from occrl.baselines.clearing import ClearingRetriever
+from occrl.baselines.observed_clearing import ObservedClearingRetriever
 from occrl.baselines.scripted import ScriptedRetriever
 from occrl.envs.episodes import run_episodes, task_scenes
 from occrl.modules import make_occnet
@@ -139,7 +140,7 @@ class Trainer:
             )
         if config.imitation_teacher in ("hybrid", "hybrid-acting") and not config.heatmap:
             raise ValueError(f"imitation_teacher={config.imitation_teacher!r} needs the heat-map head (the hybrid planner uses it)")
-        if config.imitation_teacher in ("hybrid-acting", "hierarchical") and config.collector != "single":
+        if config.imitation_teacher in ("hybrid-acting", "hierarchical", "clearing-observed") and config.collector != "single":
             raise ValueError(
                 f"imitation_teacher={config.imitation_teacher!r} needs collector 'single' (the teacher's network "
                 f"or episode memory lives in this process), got collector {config.collector!r}"
@@ -287,6 +288,8 @@ class Trainer:
         if c.imitation_iters > 0 and c.imitation_teacher == "hierarchical":
             kinds = None if c.teacher_label_kinds == "all" else tuple(c.teacher_label_kinds.split(","))
             return OnlineTeacherPolicy(self.acting_net.policy, self.expert, 0.0, label_kinds=kinds)
+        if c.imitation_iters > 0 and c.imitation_teacher == "clearing-observed":
+            return OnlineTeacherPolicy(self.acting_net.policy, self.expert, 0.0, from_first_sight=True)
         if c.imitation_iters > 0:
             return ExpertMixPolicy(self.acting_net.policy, self.expert, 0.0)
         return self.acting_net.policy
@@ -294,11 +297,14 @@ class Trainer:
     # ------------------------------------------------------------------ one iteration
     def _teacher(self, name: str):
         """The teacher or taker-over that is not the hybrid planner: the hierarchical planner (with
-        the teacher's settings), the privileged clearing retriever, or the scripted one (otherwise)."""
+        the teacher's settings), the clearing retriever (privileged, or deciding from observations),
+        or the privileged scripted one (otherwise)."""
         if name == "hierarchical":
             from occrl.baselines.hierarchical import HierarchicalPlanner  # needs OMPL
 
             return HierarchicalPlanner(seed=self.seed, **HIERARCHICAL_TEACHER)
+        if name == "clearing-observed":
+            return ObservedClearingRetriever()
         return ClearingRetriever() if name == "clearing" else ScriptedRetriever()
 
     def _collect(self) -> TensorDictBase:
@@ -394,6 +400,9 @@ class Trainer:
                         relabel_retrieval(data, self.retriever)
                 elif c.imitation_teacher == "hierarchical":
                     pass  # labelled while collecting (OnlineTeacherPolicy), in every phase
+                elif phase == "imitation" and c.imitation_teacher == "clearing-observed":
+                    # labelled while collecting; retrieval labels only: the learner keeps its search
+                    data.set("expert_weight", since_first_sight(data).to(torch.float32))
                 elif phase == "imitation":
                     label_with_expert(data, self.expert)
                     if c.imitation_teacher == "clearing":  # retrieval labels only: the learner keeps its search

@@ -164,3 +164,32 @@ def test_the_clearing_teacher_labels_only_from_the_first_sight_of_the_target(tmp
     starts = batch["is_init"].reshape(batch.shape)
     assert set(weight.unique().tolist()) == {0.0, 1.0}  # some frames before the first sight, some after
     assert bool(((weight[:, 1:] >= weight[:, :-1]) | starts[:, 1:]).all())  # once labelled, to the episode end
+
+
+def test_the_observed_clearing_teacher_acts_and_labels_from_the_first_sight_on(tmp_path):
+    from occrl.baselines.observed_clearing import ObservedClearingRetriever
+    from occrl.training.dagger import OnlineTeacherPolicy, since_first_sight
+
+    net = make_occnet("paper").eval()
+    env = make_env(batch_size=2, stage=2, seed=1).append_transform(net.make_primer())  # hidden in world 0, seen in world 1
+    policy = OnlineTeacherPolicy(net.policy, ObservedClearingRetriever(), beta=1.0, from_first_sight=True)
+    data = env.rollout(6, policy)
+    seen = since_first_sight(data)
+    assert bool(seen[1].all()) and not bool(seen[0, 0])
+    acts = data["teacher_acts"].reshape(seen.shape)
+    assert torch.equal(acts, seen)  # beta = 1: the teacher acts exactly from the first sight on
+    taken = data["action"][acts]
+    assert torch.equal(taken, data["expert_action"][acts])
+    # the trainer: the learner searches, the teacher's labels weigh from the first sight on
+    cfg = get_train_config("tiny", imitation_iters=5, imitation_teacher="clearing-observed", imitation_beta_iters=0, imitation_beta_min=0.5)
+    tr = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False)
+    assert isinstance(tr.expert, ObservedClearingRetriever)
+    tr.train(iterations=1)
+    tr.close()
+    (batch,) = tr.learner.dagger.batches
+    weight = batch["expert_weight"].reshape(batch.shape)
+    starts = batch["is_init"].reshape(batch.shape)
+    assert set(weight.unique().tolist()) == {0.0, 1.0}  # some frames before the first sight, some after
+    assert bool(((weight[:, 1:] >= weight[:, :-1]) | starts[:, 1:]).all())  # once labelled, to the episode end
+    with pytest.raises(ValueError, match="collector 'single'"):
+        Trainer(get_train_config("tiny", imitation_iters=5, imitation_teacher="clearing-observed", collector="multi"), tmp_path / "b")
