@@ -100,8 +100,8 @@ class TrainConfig:
     does, but labels only the frames from the first sight of the target on, so the learner keeps
     its own search: "expert_weight"), "clearing-observed" (the same retriever deciding from the
     observations alone, occrl.baselines.observed_clearing: the learner searches; from the first
-    sight of the target the teacher acts in a share beta of the episodes and labels the frames of
-    all; collector "single"), "hybrid" (the
+    sight of the target the teacher acts in a share beta of the episodes, and only the frames it
+    acted on are labels; collector "single"), "hybrid" (the
     hybrid 4x4 planner on the current network labels, the learner acts: expert iteration),
     "hybrid-acting" (that planner acts and labels, so the value learns the planner's own returns;
     collector "single") or "hierarchical" (the OMPL hierarchical planner, observations only, acts in

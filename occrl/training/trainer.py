@@ -401,8 +401,9 @@ class Trainer:
                 elif c.imitation_teacher == "hierarchical":
                     pass  # labelled while collecting (OnlineTeacherPolicy), in every phase
                 elif phase == "imitation" and c.imitation_teacher == "clearing-observed":
-                    # labelled while collecting; retrieval labels only: the learner keeps its search
-                    data.set("expert_weight", since_first_sight(data).to(torch.float32))
+                    # labelled while collecting; only the teacher's own retrievals are labels: on the
+                    # learner's states its corrections are mostly "back out first" (docs/decisions.md)
+                    data.set("expert_weight", data.get("teacher_acts").reshape(data.shape).to(torch.float32))
                 elif phase == "imitation":
                     label_with_expert(data, self.expert)
                     if c.imitation_teacher == "clearing":  # retrieval labels only: the learner keeps its search

@@ -180,7 +180,7 @@ def test_the_observed_clearing_teacher_acts_and_labels_from_the_first_sight_on(t
     assert torch.equal(acts, seen)  # beta = 1: the teacher acts exactly from the first sight on
     taken = data["action"][acts]
     assert torch.equal(taken, data["expert_action"][acts])
-    # the trainer: the learner searches, the teacher's labels weigh from the first sight on
+    # the trainer: the learner searches, the frames the teacher acted on are the labels
     cfg = get_train_config("tiny", imitation_iters=5, imitation_teacher="clearing-observed", imitation_beta_iters=0, imitation_beta_min=0.5)
     tr = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False)
     assert isinstance(tr.expert, ObservedClearingRetriever)
@@ -189,7 +189,7 @@ def test_the_observed_clearing_teacher_acts_and_labels_from_the_first_sight_on(t
     (batch,) = tr.learner.dagger.batches
     weight = batch["expert_weight"].reshape(batch.shape)
     starts = batch["is_init"].reshape(batch.shape)
-    assert set(weight.unique().tolist()) == {0.0, 1.0}  # some frames before the first sight, some after
-    assert bool(((weight[:, 1:] >= weight[:, :-1]) | starts[:, 1:]).all())  # once labelled, to the episode end
+    assert set(weight.unique().tolist()) == {0.0, 1.0}  # the teacher acted in some episodes, from the first sight on
+    assert bool(((weight[:, 1:] >= weight[:, :-1]) | starts[:, 1:]).all())  # once it acts, to the episode end
     with pytest.raises(ValueError, match="collector 'single'"):
         Trainer(get_train_config("tiny", imitation_iters=5, imitation_teacher="clearing-observed", collector="multi"), tmp_path / "b")
