@@ -126,3 +126,10 @@ def test_oracle_roots_plan_in_a_world_that_steps_as_the_real_one():
         td = step_mdp(td)
     with pytest.raises(ValueError, match="which must be"):
         OracleRootsPlanner(net, "heatmap")
+
+
+def test_label_census_counts_the_teachers_labels_after_the_first_sight():
+    out = _run("scripts/label_census.py", "--worlds", "2", "--weights", "occnet-takeover")
+    frames = int(out.split("frames after the first sight")[0].split(": ")[1].split(" of ")[0])
+    assert "2 worlds x 50 steps, stage 2" in out and 0 < frames <= 100
+    assert "labels that back out: " in out and "the learner's mean action" in out
