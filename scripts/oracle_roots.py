@@ -1,6 +1,6 @@
 """Is it the planner's model of the world or its network that holds the hybrid planner back?
 
-    python scripts/oracle_roots.py --stage 2 --tasks 200 --roots state [--weights W] [--baseline F.json] [--out F.json]
+    python scripts/oracle_roots.py --stage 2 --tasks 200 --roots state [--to-the-end] [--weights W] [--baseline F.json] [--out F.json]
 
 The hybrid 4x4 planner (paper Alg. 1-2, the network's policy and value unchanged) plans from
 roots that it could not know, on the README's held-out tasks (the planner reseeded per task as
@@ -13,6 +13,10 @@ roots that it could not know, on the README's held-out tasks (the planner reseed
 - ``--roots target``: the recreated state (detected objects only) with the target at its true
   pose while it is not detected, one root: a perfect heat-map; the objects the camera has not
   seen stay missing from the roll-outs, as in the planner.
+
+``--to-the-end``: each roll-out runs to the episode's 50-action limit and its return is the
+sum of the rewards (no value at a horizon): the policy's own outcome from each root, a Monte-Carlo
+stand-in for a perfect value of this policy (slow: ~10 s per task).
 
 Against the planner's own episodes on the same tasks (``--baseline``, an `occrl eval --out`
 file) it prints the success of both, the tasks only one solved and the exact McNemar p-value.
@@ -38,19 +42,37 @@ from occrl.envs import SceneObject
 from occrl.envs.episodes import run_episodes, task_scenes
 from occrl.eval.methods import make_method
 from occrl.eval.runner import EVAL_SEED_BASE, mcnemar_p, summarize
+from occrl.envs import world_constants as C
 from occrl.planners import HybridPlanner, RecreatedState, Root, recreate, with_target
+from occrl.planners.rhp import NetworkStepper
 from occrl.pretrained import weights_file
 
 
-class OracleRootsPlanner(HybridPlanner):
-    """The hybrid planner planning from privileged roots (``which``: ``"state"`` or ``"target"``)."""
+class ZeroValueStepper(NetworkStepper):
+    """The roll-outs' network calls with a value of 0 at the horizon."""
 
-    def __init__(self, net, which: str, **kwargs) -> None:
+    def value(self, out: dict[str, torch.Tensor]) -> torch.Tensor:
+        return torch.zeros(out["loc"].shape[0])
+
+
+class OracleRootsPlanner(HybridPlanner):
+    """The hybrid planner planning from privileged roots (``which``: ``"state"`` or ``"target"``);
+    ``to_the_end``: roll-outs to the episode's action limit, scored by their rewards alone."""
+
+    def __init__(self, net, which: str, to_the_end: bool = False, **kwargs) -> None:
         super().__init__(net, **kwargs)
         if which not in ("state", "target"):
             raise ValueError(f"which must be 'state' or 'target', got {which!r}")
         self.which = which
-        self.in_keys = [*self.in_keys, "privileged"]
+        self.to_the_end = to_the_end
+        if to_the_end:
+            self.stepper = ZeroValueStepper(net)
+        self.in_keys = [*self.in_keys, "privileged", "step_count"]
+
+    def decide(self, obs: TensorDictBase, heatmap: np.ndarray, hidden):
+        if self.to_the_end:  # the roll-outs' depth: the actions left in the episode
+            self.h = max(1, C.MAX_EPISODE_STEPS - int(obs.get("step_count").reshape(-1)[0]))
+        return super().decide(obs, heatmap, hidden)
 
     def roots(self, obs: TensorDictBase, heatmap: np.ndarray) -> list[Root]:
         state = recreate(obs)
@@ -80,26 +102,28 @@ def main() -> None:
     parser.add_argument("--stage", type=int, default=2, choices=(1, 2, 3))
     parser.add_argument("--tasks", type=int, default=200)
     parser.add_argument("--roots", default="state", choices=("state", "target"))
+    parser.add_argument("--to-the-end", action="store_true", help="roll-outs to the action limit, no value at a horizon")
     parser.add_argument("--weights", default=None, help="the planner's network: a weights file or a shipped name (default: occnet)")
     parser.add_argument("--baseline", default=None, help="an `occrl eval --out` file of hybrid 4x4 on the same tasks")
     parser.add_argument("--out", default=None)
     args = parser.parse_args()
     torch.set_num_threads(1)
     method = make_method("hybrid-4x4", weights_file(args.weights))
-    planner = OracleRootsPlanner(method.policy.net, args.roots, m=4, h=4)
+    planner = OracleRootsPlanner(method.policy.net, args.roots, args.to_the_end, m=4, h=4)
     seeds = list(range(EVAL_SEED_BASE, EVAL_SEED_BASE + args.tasks))
     t0 = time.time()
     results = []
     # one world per task, as `occrl eval` runs the planners
-    for seed in tqdm(seeds, desc=f"hybrid 4x4 from the true {args.roots}", unit="task"):
+    name = f"hybrid {'4 roll-outs to the end' if args.to_the_end else '4x4'} from the true {args.roots}"
+    for seed in tqdm(seeds, desc=name, unit="task"):
         results += run_episodes(planner, task_scenes(args.stage, [seed]), [seed], 0.0, 1, method.primers)
     summary = summarize(results)
     lo, hi = summary["success_ci95"]
     print(
-        f"hybrid 4x4 from the true {args.roots}, stage {args.stage}: {100 * summary['success_rate']:.1f} % "
+        f"{name}, stage {args.stage}: {100 * summary['success_rate']:.1f} % "
         f"({100 * lo:.1f}-{100 * hi:.1f}) of {len(results)} tasks, {summary['dropped']} dropped; {time.time() - t0:.0f} s"
     )
-    report = {"stage": args.stage, "roots": args.roots, "weights": args.weights or "occnet", **summary}
+    report = {"stage": args.stage, "roots": args.roots, "to_the_end": args.to_the_end, "weights": args.weights or "occnet", **summary}
     report["episodes"] = [
         {"seed": r.seed, "success": bool(r.success), "actions": int(r.actions), "dropped": bool(r.dropped)} for r in results
     ]
