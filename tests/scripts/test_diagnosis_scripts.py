@@ -91,7 +91,10 @@ def test_oracle_roots_plan_in_a_world_that_steps_as_the_real_one():
     # the true-state root holds every object, hidden ones included, and its imagined world
     # steps as the execution world does at noise 0; the true-target root adds only the target
     import numpy as np
+    import torch
     from torchrl.envs.utils import step_mdp
+
+    from occrl.envs import world_constants as C
 
     sys.path.insert(0, str(ROOT / "scripts"))
     try:
@@ -124,6 +127,15 @@ def test_oracle_roots_plan_in_a_world_that_steps_as_the_real_one():
         assert np.abs(world.object_poses() - nxt["privileged", "object_pose"].numpy()[alive]).max() < 1e-6
         assert np.abs(world.gripper_pose() - nxt["gripper_pose"].numpy()).max() < 1e-6
         td = step_mdp(td)
+    # to the end: as deep as the actions left in the episode, scored by the rewards alone
+    end = OracleRootsPlanner(net, "state", to_the_end=True, m=2, h=2)
+    obs = td[0].clone()
+    obs["step_count"] = torch.tensor([47])
+    hidden = (torch.zeros(1, 1, 128), torch.zeros(1, 1, 128))
+    decision = end.decide(obs, np.zeros((64, 64)), hidden)
+    assert end.h == 3 and decision.result.paths.shape[2] == 4
+    ends = np.isfinite(decision.result.paths[..., 1:, 0]).sum(-1)  # steps each roll-out took
+    assert np.allclose(decision.result.returns[ends == 3], -(1 + C.GAMMA + C.GAMMA**2))  # three -1 rewards, no value
     with pytest.raises(ValueError, match="which must be"):
         OracleRootsPlanner(net, "heatmap")
 
