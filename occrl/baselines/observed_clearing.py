@@ -11,8 +11,11 @@ fingers carried along with them. Its actions are then a function of the observat
 which a recurrent network can learn.
 
 It does not search: before the target has been detected in an episode it has nothing to
-retrieve and holds still with the gripper open (:data:`NO_TARGET_ACTION`); as a teacher it
-labels the frames from the first detection on (``occrl.training.dagger.since_first_sight``).
+retrieve and holds still with the gripper open (:data:`NO_TARGET_ACTION`). As a teacher
+(``occrl train --imitation-teacher clearing-observed``) it takes over in a share of the episodes
+at the first detection and the frames it acts on are the labels; its answers on the learner's
+own states are mostly "back out first" (``scripts/label_census.py``), which the learner, trained
+on them, learned to do everywhere (docs/decisions.md).
 """
 
 from __future__ import annotations
