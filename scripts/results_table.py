@@ -2,8 +2,10 @@
 
     python scripts/results_table.py results/heldout/*.json          # one row per file
     python scripts/results_table.py --grid results/heldout/*.json   # methods x (stage, noise), as in docs/experiments.md
-    python scripts/results_table.py --compare A.json B.json         # episodes with the same outcome and length
+    python scripts/results_table.py --compare A.json B.json         # the same episodes; exclusive wins, McNemar p
 
+``--compare`` matches two runs' tasks by seed: how many episodes are the same (outcome, drop,
+length), the tasks only one of them solved and the exact McNemar p-value of the difference.
 The row table gives success with its 95 % interval, drops, actions and time per task; the grid
 gives success (95 % interval, drops) per method and stage at noise 0 and 0.15, for the 2D world
 with each stage's own object counts.
@@ -14,6 +16,8 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
+
+from occrl.eval.runner import exclusive_wins, mcnemar_p
 
 GRID_METHODS = ["hybrid-4x4", "hybrid-2x2", "hybrid-6x6", "hybrid-lim-4x4", "stochastic-gen", "stochastic", "greedy", "scripted"]
 GRID_COLUMNS = [(1, 0.0), (2, 0.0), (3, 0.0), (1, 0.15), (2, 0.15), (3, 0.15)]
@@ -72,14 +76,22 @@ def same_episodes(a: dict, b: dict) -> int:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--grid", action="store_true", help="methods x (stage, noise) instead of one row per file")
-    parser.add_argument("--compare", action="store_true", help="two files: how many of their episodes are the same")
+    parser.add_argument("--compare", action="store_true", help="two files: the same episodes, exclusive wins, McNemar p")
     parser.add_argument("files", nargs="+")
     args = parser.parse_args()
     results = [json.loads(Path(f).read_text()) for f in args.files]
     if args.compare:
         if len(results) != 2:
             parser.error("--compare takes exactly two files")
-        print(f"{same_episodes(*results)} of {len(results[0]['episodes'])} episodes the same")
+        a, b = results
+        print(f"{same_episodes(a, b)} of {len(a['episodes'])} episodes the same")
+        tasks, only_a, only_b = exclusive_wins(a["episodes"], b["episodes"])
+        common = {e["seed"] for e in a["episodes"]} & {e["seed"] for e in b["episodes"]}
+        solved = [sum(e["success"] for e in d["episodes"] if e["seed"] in common) for d in (a, b)]
+        print(
+            f"{tasks} tasks in both: solved {solved[0]} / {solved[1]}; only by the first {only_a}, only by the second {only_b}; "
+            f"exact McNemar p = {mcnemar_p(only_a, only_b):.3f}"
+        )
         return
     print(grid_table(results) if args.grid else rows_table(results), end="")
 

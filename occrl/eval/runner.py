@@ -21,7 +21,7 @@ from occrl.envs import world_constants as C
 from occrl.envs.episodes import EpisodeResult, run_episodes, seeded_task_env, task_scenes
 
 # EpisodeResult, run_episodes, task_scenes, seeded_task_env live in occrl.envs.episodes (importable here too)
-__all__ = ["rollout_tasks", "run_tasks", "summarize", "wilson_interval", "mcnemar_p", "EVAL_SEED_BASE"]
+__all__ = ["rollout_tasks", "run_tasks", "summarize", "wilson_interval", "mcnemar_p", "exclusive_wins", "EVAL_SEED_BASE"]
 
 logger = logging.getLogger(__name__)
 
@@ -59,6 +59,23 @@ def mcnemar_p(only_a: int, only_b: int) -> float:
         raise ValueError(f"discordant counts must be >= 0, got {only_a} and {only_b}")
     n, k = only_a + only_b, min(only_a, only_b)
     return min(1.0, 2 * sum(math.comb(n, i) for i in range(k + 1)) / 2**n) if n else 1.0
+
+
+def exclusive_wins(a: Sequence[dict], b: Sequence[dict]) -> tuple[int, int, int]:
+    """Two runs' episodes (``{"seed", "success", ...}``, as ``occrl eval --out`` writes them)
+    matched by task seed: (tasks both ran, tasks only ``a`` solved, tasks only ``b`` solved), the
+    counts :func:`mcnemar_p` takes.
+
+    Examples:
+        >>> from occrl.eval.runner import exclusive_wins
+        >>> a = [{"seed": 1, "success": True}, {"seed": 2, "success": True}, {"seed": 3, "success": False}]
+        >>> b = [{"seed": 2, "success": False}, {"seed": 3, "success": True}, {"seed": 4, "success": True}]
+        >>> exclusive_wins(a, b)
+        (2, 1, 1)
+    """
+    other = {e["seed"]: bool(e["success"]) for e in b}
+    pairs = [(bool(e["success"]), other[e["seed"]]) for e in a if e["seed"] in other]
+    return len(pairs), sum(x and not y for x, y in pairs), sum(y and not x for x, y in pairs)
 
 
 def rollout_tasks(method, stage: int, seeds: Sequence[int], noise: float = 0.0, steps: int = C.MAX_EPISODE_STEPS) -> TensorDictBase:

@@ -145,3 +145,11 @@ def test_label_census_counts_the_teachers_labels_after_the_first_sight():
     frames = int(out.split("frames after the first sight")[0].split(": ")[1].split(" of ")[0])
     assert "2 worlds x 50 steps, stage 2" in out and 0 < frames <= 100
     assert "labels that back out: " in out and "the learner's mean action" in out
+
+
+def test_results_table_compares_two_runs_task_by_task(tmp_path):
+    a = _result(tmp_path / "a.json", "hybrid-4x4", 2, [True, True, True, False])
+    b = _result(tmp_path / "b.json", "hybrid-4x4", 2, [True, False, False, True])
+    out = _run("scripts/results_table.py", "--compare", str(a), str(b))
+    assert "1 of 4 episodes the same" in out
+    assert "4 tasks in both: solved 3 / 2; only by the first 2, only by the second 1; exact McNemar p = 1.000" in out
