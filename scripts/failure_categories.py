@@ -10,7 +10,10 @@ one category, read from the env's privileged ground truth (analysis only; no met
 - never detected: the target was never reported by perception;
   (and whether its centre was ever inside the camera's field of view: a target that never was is
   one the search never turned to, such as one in a front corner beside the gripper's start);
-- detected, never held: seen at some step, never between the fingers;
+- detected, never held: seen at some step, never between the fingers; split by how close the
+  gripper came: it closed its fingers at least once and held nothing ("closed, missed"), it
+  brought the target's centre within 8 cm of the point between its fingertips' middle and never
+  closed ("approached, never closed"), or never that close ("never approached");
 - held, not out: grasped at some step but not pulled out within 50 actions.
 
 It also prints the share of the episode's steps with the gripper outside the shelf (y < 0): a
@@ -32,6 +35,10 @@ from occrl.eval.runner import rollout_tasks
 from occrl.pretrained import weights_file
 
 
+# "approached": the target's centre came this close to the point midway along the open fingers
+APPROACHED = 0.08  # m
+
+
 def categorise(td) -> dict:
     """Category and facts of one replayed episode (a [1, T] rollout)."""
     slot = td["privileged", "target_slot"][0, :, 0]
@@ -45,12 +52,24 @@ def categorise(td) -> dict:
     target = td["privileged", "target_pose"][0].numpy().astype(float)
     bearing = np.arctan2(target[:, 1] - gripper[:, 1], target[:, 0] - gripper[:, 0]) - (gripper[:, 2] + np.pi / 2)
     in_view = np.abs((bearing + np.pi) % (2 * np.pi) - np.pi) <= C.CAMERA_FOV / 2
+    # the target's centre in the gripper frame, against the point midway along the fingers
+    dx, dy = target[:, 0] - gripper[:, 0], target[:, 1] - gripper[:, 1]
+    c, s = np.cos(gripper[:, 2]), np.sin(gripper[:, 2])
+    to_grasp_point = np.hypot(c * dx + s * dy, -s * dx + c * dy - C.FINGER_LENGTH / 2)
+    action = td["action"][0].numpy()
+    closes = int(((action[:, 3] > 0) & ~td["gripper_closed"][0, :, 0].numpy()).sum())
     if dropped.any():
         category = "dropped"
     elif not detected.any():
         category = "never detected"
     elif not held.any():
-        category = "detected, never held"
+        if closes:
+            approach = "closed, missed"
+        elif to_grasp_point.min() <= APPROACHED:
+            approach = "approached, never closed"
+        else:
+            approach = "never approached"
+        category = f"detected, never held ({approach})"
     else:
         category = "held, not out"
     return {
@@ -60,6 +79,8 @@ def categorise(td) -> dict:
         "outside_share": float(outside.mean()),
         "target_depth_m": float(td["privileged", "target_pose"][0, 0, 1]),
         "ever_in_view": bool(in_view.any()),
+        "closes": closes,
+        "nearest_to_grasp_point_m": float(to_grasp_point.min()),
     }
 
 
@@ -86,12 +107,14 @@ def main() -> None:
         outside.append(facts["outside_share"])
         never_in_view += facts["category"] == "never detected" and not facts["ever_in_view"]
         print(
-            f"seed {seed}: {facts['category']:22s} first seen at step {facts['first_detected']}, seen on "
+            f"seed {seed}: {facts['category']:50s} first seen at step {facts['first_detected']}, seen on "
             f"{facts['detected_share']:.0%} of steps, gripper outside on {facts['outside_share']:.0%}, target depth {facts['target_depth_m']:.2f} m"
             + ("" if facts["ever_in_view"] else ", never in the field of view"),
             flush=True,
         )
     print(f"{d['method']} stage {d['stage']}: {len(failed)} failures replayed: " + ", ".join(f"{k} {v}" for k, v in counts.most_common()))
+    never_held = sum(v for k, v in counts.items() if k.startswith("detected, never held"))
+    print(f"detected, never held: {never_held} (closed, missed; approached, never closed; never approached: split above)")
     outside = np.array(outside)
     print(f"gripper outside the shelf on >= 90 % of the steps in {(outside >= 0.9).sum()} of {len(failed)} failures")
     print(f"never detected and never in the camera's field of view: {never_in_view} of {counts['never detected']}")

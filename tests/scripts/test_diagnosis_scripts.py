@@ -64,6 +64,38 @@ def test_failure_categories_finds_a_target_the_camera_never_faced(tmp_path):
     assert "never detected and never in the camera's field of view: 1 of 1" in out
 
 
+def test_failure_categories_splits_a_missed_grasp(tmp_path):
+    # held-out stage-2 task 10000007: occnet-takeover's own policy sees the target, closes its
+    # fingers in front of it and never holds it
+    path = _result(tmp_path / "r.json", "stochastic-gen", 2, [True] * 7 + [False])
+    out = _run("scripts/failure_categories.py", str(path), "--weights", "occnet-takeover")
+    assert "seed 10000007: detected, never held (closed, missed)" in out
+    assert "detected, never held: 1 " in out
+
+
+def test_image_limited_retriever_reads_the_target_from_the_image(tmp_path):
+    out_file = tmp_path / "r.json"
+    out = _run(
+        "scripts/image_limited_retriever.py",
+        "--stage",
+        "1",
+        "--tasks",
+        "2",
+        "--size",
+        "32",
+        "--fovea-size",
+        "32",
+        "--baseline",
+        "results/heldout-physics2/scripted_s1.json",
+        "--out",
+        str(out_file),
+    )
+    assert "scripted reading the target from 32 px over 0.8 m and 32 px over 0.4 m (8 mm map), stage 1:" in out
+    assert "reading the true pose on the same 2 tasks:" in out
+    report = json.loads(out_file.read_text())
+    assert [e["seed"] for e in report["episodes"]] == [10_000_000, 10_000_001] and report["windows"][1] == [32, 0.4, 0.1]
+
+
 def test_planner_decisions_prints_every_decision():
     out = _run("scripts/planner_decisions.py", "--method", "hybrid-2x2", "--stage", "1", "--seed", "3", "--steps", "2")
     assert out.count("step ") == 2 and out.count("    root 0: returns") == 2
