@@ -46,7 +46,7 @@ def run_demo(args: argparse.Namespace) -> int:
     if method not in PRIVILEGED_LABELS and not args.weights and "occnet" not in available():
         print("no shipped network in this installation: showing the privileged scripted retriever instead")
         method = "scripted"
-    primers = []
+    primers, size = [], None
     if method in PRIVILEGED_LABELS:
         from occrl.eval.methods import make_method
 
@@ -59,7 +59,7 @@ def run_demo(args: argparse.Namespace) -> int:
         net = load_weights(checked_weights_file(args.weights)) if args.weights else load_pretrained("occnet")
         m, h = (int(v) for v in method.split("-")[-1].split("x"))
         policy = HybridPlanner(net, m=m, h=h, seed=args.seed)
-        primers = [net.make_primer()]
+        primers, size = [net.make_primer()], net.config.image_size
         card = model_card(args.weights or "occnet") or {"file": args.weights}
         label = f"hybrid planner {m}x{h} with network {card.get('summary', card)}"
     rows, frames_all = [], []
@@ -68,6 +68,8 @@ def run_demo(args: argparse.Namespace) -> int:
     for k in range(args.tasks):
         scene = Scene.sample(args.stage, seed=args.seed + k)
         extra = {"world": "mujoco", "record_camera": _gl_available()} if args.world == "mujoco" else {}
+        if size is not None:  # the network's image size (the privileged methods read no image)
+            extra["size"] = size
         env = make_env(batch_size=1, scenes=[scene], heatmap_target=False, **extra)
         for p in primers:
             env.append_transform(p.clone())

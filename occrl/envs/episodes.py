@@ -20,6 +20,7 @@ from torchrl.envs.utils import ExplorationType, set_exploration_type
 
 from occrl.envs import world_constants as C
 from occrl.envs.pipeline import make_env
+from occrl.envs.robot_frame import DEFAULT_SIZE
 from occrl.envs.scene import Scene
 
 __all__ = ["EpisodeResult", "task_scenes", "task_object_count", "seeded_task_env", "episode_end", "run_episodes", "TIME_LIMIT_S"]
@@ -94,6 +95,7 @@ def seeded_task_env(
     primers: Sequence = (),
     heatmap_target: bool = False,
     world: str = "pymunk",
+    size: int = DEFAULT_SIZE,
 ):
     """The env of a batch of tasks, with the env and the decision maker seeded by the task seeds:
     what :func:`run_episodes` runs, and what a replay of one of its episodes must build.
@@ -111,7 +113,13 @@ def seeded_task_env(
         torch.Size([2])
     """
     env = make_env(
-        batch_size=len(scenes), scenes=list(scenes), noise=noise, seed=[int(s) for s in seeds], heatmap_target=heatmap_target, world=world
+        batch_size=len(scenes),
+        scenes=list(scenes),
+        noise=noise,
+        seed=[int(s) for s in seeds],
+        heatmap_target=heatmap_target,
+        world=world,
+        size=size,
     )
     for p in primers:
         env.append_transform(p.clone() if hasattr(p, "clone") else p)
@@ -147,6 +155,7 @@ def run_episodes(
     exploration: ExplorationType = ExplorationType.RANDOM,
     heatmap_target: bool = False,
     world: str = "pymunk",
+    size: int = DEFAULT_SIZE,
 ) -> list[EpisodeResult]:
     """Run ``policy`` once on each scene (batches of ``batch_size`` worlds stepped together).
 
@@ -165,7 +174,7 @@ def run_episodes(
     for start in range(0, len(scenes), batch_size):
         chunk = list(scenes[start : start + batch_size])
         chunk_seeds = list(seeds[start : start + batch_size])
-        env = seeded_task_env(policy, chunk, chunk_seeds, noise, primers, heatmap_target, world)
+        env = seeded_task_env(policy, chunk, chunk_seeds, noise, primers, heatmap_target, world, size)
         t = time.time()
         with torch.no_grad(), set_exploration_type(exploration):
             td = env.rollout(C.MAX_EPISODE_STEPS, policy, break_when_any_done=False)

@@ -242,9 +242,10 @@ def crop_to_pixels(
     return labels_to_pixels(canvas.lookup(labels, points))
 
 
-def world_pixels(worlds: Sequence) -> torch.Tensor:
-    """The network input each 2D world's gripper camera gives, (B, 3, 64, 64) in [0, 1]: the
-    env's observation pipeline (default window) applied to the worlds, without an env.
+def world_pixels(worlds: Sequence, size: int = DEFAULT_SIZE) -> torch.Tensor:
+    """The network input each 2D world's gripper camera gives, (B, 3, size, size) in [0, 1]: the
+    env's observation pipeline (the default 0.8 m window, ``size`` pixels a side) applied to the
+    worlds, without an env.
 
     Examples:
         >>> from occrl.envs import make_env
@@ -258,5 +259,5 @@ def world_pixels(worlds: Sequence) -> torch.Tensor:
     a = detection_arrays(worlds, worlds_visible_fractions(worlds, poses), poses)
     polygons = detected_world_polygons(a["detected"], a["type_id"], a["pose"], a["vertices"], a["num_vertices"], a["target_type"])
     # render_shelf_labels + crop_to_pixels, bit for bit, drawing only the part of the shelf the window shows
-    points = robot_centric_points(a["gripper_pose"].astype(np.float64))
+    points = robot_centric_points(a["gripper_pose"].astype(np.float64), size=size)
     return labels_to_pixels(render_labels_at(a["gripper_pose"], a["gripper_opening"], polygons, points))

@@ -8,6 +8,8 @@ from pathlib import Path
 
 from torchrl.envs.utils import ExplorationType
 
+from occrl.envs.robot_frame import DEFAULT_SIZE
+
 __all__ = ["Method", "make_method", "METHODS", "PRIVILEGED"]
 
 METHODS = [
@@ -46,6 +48,9 @@ class Method:
     primers: list = field(default_factory=list)
     exploration: ExplorationType = ExplorationType.RANDOM
     network: str | None = None
+    image_size: int = DEFAULT_SIZE
+    """Pixels a side of the env's network input: the network's ``config.image_size`` (64; 128 for
+    the ``"fine"`` preset); methods without a network ignore the image."""
 
 
 def _net(name: str, weights: str | Path | None):
@@ -89,6 +94,7 @@ def make_method(
             HybridPlanner(net, m=m, h=h, limited=limited, seed=seed, rollout_min_scale=rollout_min_scale, inference=inference),
             [net.make_primer()],
             network=str(weights or "occnet"),
+            image_size=net.config.image_size,
         )
     if name == "hierarchical":
         from occrl.baselines.hierarchical import HierarchicalPlanner
@@ -108,5 +114,12 @@ def make_method(
         from occrl.baselines import NetPolicy
 
         policy = NetPolicy(net, stochastic=name != "greedy", seed=seed)
-        return Method(name, policy, [net.make_primer()], ExplorationType.DETERMINISTIC, network=str(weights or net_name))
+        return Method(
+            name,
+            policy,
+            [net.make_primer()],
+            ExplorationType.DETERMINISTIC,
+            network=str(weights or net_name),
+            image_size=net.config.image_size,
+        )
     raise ValueError(f"unknown method {name!r}; available: {METHODS}")

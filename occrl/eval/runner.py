@@ -90,7 +90,7 @@ def rollout_tasks(method, stage: int, seeds: Sequence[int], noise: float = 0.0, 
         >>> td.batch_size, ("privileged", "target_pose") in td.keys(True)
         (torch.Size([2, 5]), True)
     """
-    env = seeded_task_env(method.policy, task_scenes(stage, seeds), seeds, noise, method.primers)
+    env = seeded_task_env(method.policy, task_scenes(stage, seeds), seeds, noise, method.primers, size=method.image_size)
     with torch.no_grad(), set_exploration_type(method.exploration):
         return env.rollout(steps, method.policy, break_when_any_done=False)
 
@@ -134,7 +134,9 @@ def _init_worker(method: str, weights, threads: int, rollout_min_scale: float = 
 def _run_chunk(args) -> list[EpisodeResult]:
     stage, seeds, num_objects, noise, world = args
     m = _WORKER["method"]
-    return run_episodes(m.policy, task_scenes(stage, seeds, num_objects), seeds, noise, len(seeds), m.primers, m.exploration, world=world)
+    return run_episodes(
+        m.policy, task_scenes(stage, seeds, num_objects), seeds, noise, len(seeds), m.primers, m.exploration, world=world, size=m.image_size
+    )
 
 
 def _run_tasks_ray(

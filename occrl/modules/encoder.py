@@ -16,18 +16,35 @@ class ConvEncoder(nn.Module):
     The paper preset is ``channels=(8, 8, 16)`` on 64x64 inputs: 64 -> 32 -> 16 -> 8, so the
     output has 16 * 8 * 8 = 1024 features.
 
+    ``stem_channels`` > 0 (the ``"fine"`` preset, beyond the paper) puts a stride-2 stem in front:
+    conv 3x3, stride 2 (padding 1) to ``stem_channels`` + leaky ReLU, which halves the input, so a
+    128x128 image (twice the pixels over the same window) reaches the stages at 64x64 and the
+    output keeps the paper's 1024 features.
+
     Examples:
         >>> import torch
         >>> from occrl.modules import ConvEncoder
         >>> enc = ConvEncoder()
         >>> enc(torch.zeros(2, 3, 64, 64)).shape
         torch.Size([2, 1024])
+        >>> ConvEncoder(image_size=128, stem_channels=8)(torch.zeros(2, 3, 128, 128)).shape
+        torch.Size([2, 1024])
     """
 
-    def __init__(self, in_channels: int = 3, channels: Sequence[int] = (8, 8, 16), image_size: int = 64, batch_norm: bool = True) -> None:
+    def __init__(
+        self,
+        in_channels: int = 3,
+        channels: Sequence[int] = (8, 8, 16),
+        image_size: int = 64,
+        batch_norm: bool = True,
+        stem_channels: int = 0,
+    ) -> None:
         super().__init__()
         layers: list[nn.Module] = []
         c = in_channels
+        if stem_channels > 0:
+            layers += [nn.Conv2d(c, stem_channels, kernel_size=3, stride=2, padding=1), nn.LeakyReLU()]
+            c, image_size = stem_channels, image_size // 2
         for out in channels:
             layers.append(nn.Conv2d(c, out, kernel_size=3, padding=1))
             if batch_norm:

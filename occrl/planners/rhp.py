@@ -22,6 +22,7 @@ import torch
 
 from occrl.envs import world_constants as C
 from occrl.envs.observation import world_pixels
+from occrl.envs.robot_frame import DEFAULT_SIZE
 from occrl.envs.pymunk2d.world import ShelfWorld
 from occrl.modules.occnet import OccNet
 from occrl.planners.recreate import RecreatedState, WorldPool, make_world
@@ -29,8 +30,9 @@ from occrl.planners.recreate import RecreatedState, WorldPool, make_world
 __all__ = ["RHPResult", "rhp_batched", "rhp_sequential", "render_pixels", "NetworkStepper", "StepGraph", "INFERENCE_BACKENDS"]
 
 
-def render_pixels(worlds: Sequence[ShelfWorld]) -> torch.Tensor:
-    """The network input each world's camera would give: (N, 3, 64, 64) in [0, 1].
+def render_pixels(worlds: Sequence[ShelfWorld], size: int = DEFAULT_SIZE) -> torch.Tensor:
+    """The network input each world's camera would give: (N, 3, size, size) in [0, 1] (the
+    network's ``config.image_size``: 64, or 128 for the ``"fine"`` preset).
 
     The env's own observation pipeline (:func:`occrl.envs.observation.world_pixels`): a world
     recreated from an observation renders the image of that observation, pixel for pixel.
@@ -44,7 +46,7 @@ def render_pixels(worlds: Sequence[ShelfWorld]) -> torch.Tensor:
         >>> pixels.shape, float(pixels.min()) >= 0.0, float(pixels.max()) <= 1.0
         (torch.Size([1, 3, 64, 64]), True, True)
     """
-    return world_pixels(worlds)
+    return world_pixels(worlds, size)
 
 
 INFERENCE_BACKENDS = ("torch", "onnxruntime")
@@ -261,6 +263,7 @@ def rhp_batched(
         ((2, 4), (2,), 8)
     """
     R, m, depth, _ = noise.shape
+    size = net.config.image_size
     stepper = stepper if stepper is not None else NetworkStepper(net, min_scale)
     rollout_states = [root for root in roots for _ in range(m)]
     worlds = pool.take(rollout_states) if pool is not None else [make_world(state) for state in rollout_states]
@@ -270,7 +273,7 @@ def rhp_batched(
         raise ValueError(f"hidden must hold one LSTM state or one per root ({R}), got {hidden[0].shape[0]}")
     h0 = hidden[0].expand(R, *hidden[0].shape[1:]).contiguous()
     c0 = hidden[1].expand(R, *hidden[1].shape[1:]).contiguous()
-    out, h, c = stepper.step(render_pixels(worlds[::m]), h0, c0)
+    out, h, c = stepper.step(render_pixels(worlds[::m], size), h0, c0)
     out = {key: value.repeat_interleave(m, dim=0) for key, value in out.items()}
     h, c = h.repeat_interleave(m, dim=0), c.repeat_interleave(m, dim=0)
     eps = noise.reshape(n, depth, 4)
@@ -297,9 +300,9 @@ def rhp_batched(
             break
         idx = torch.from_numpy(np.flatnonzero(alive))
         if len(idx) == n:  # every roll-out goes on: the step's outputs are the new rows as they are
-            out, h, c = stepper.step(render_pixels(worlds), h, c)
+            out, h, c = stepper.step(render_pixels(worlds, size), h, c)
             continue
-        sub, h_new, c_new = stepper.step(render_pixels([worlds[k] for k in idx.tolist()]), h[idx], c[idx])
+        sub, h_new, c_new = stepper.step(render_pixels([worlds[k] for k in idx.tolist()], size), h[idx], c[idx])
         # alive rows move on; finished rows keep their last outputs (never read again)
         out = {key: value.clone() for key, value in out.items()}
         for key, value in out.items():
@@ -336,6 +339,7 @@ def rhp_sequential(
         (True, True)
     """
     R, m, depth, _ = noise.shape
+    size = net.config.image_size
     stepper = NetworkStepper(net, min_scale)
     returns = np.zeros((R, m))
     first = np.zeros((R, m, 4))
@@ -345,7 +349,7 @@ def rhp_sequential(
         for i in range(m):
             world = make_world(root)
             paths[r, i, 0] = world.gripper_pose()
-            out, h, c = stepper.step(render_pixels([world]), hidden[0], hidden[1])
+            out, h, c = stepper.step(render_pixels([world], size), hidden[0], hidden[1])
             ret, discount, terminal = 0.0, 1.0, False
             for j in range(depth):
                 action = (out["loc"] + out["scale"] * noise[r, i, j]).clamp(-1.0, 1.0).numpy().astype(np.float64)[0]
@@ -359,7 +363,7 @@ def rhp_sequential(
                 if outcome.terminal:
                     terminal = True
                     break
-                out, h, c = stepper.step(render_pixels([world]), h, c)
+                out, h, c = stepper.step(render_pixels([world], size), h, c)
             if not terminal:
                 ret += discount * float(stepper.value(out)[0])
             returns[r, i] = ret

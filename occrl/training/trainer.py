@@ -83,7 +83,9 @@ def hybrid_validation_success(net, stage: int, tasks: int, noise: float = 0.0) -
     held-out seeds). The trainer's default ``promotion_check``."""
     seeds = list(range(VALIDATION_SEED_BASE, VALIDATION_SEED_BASE + tasks))
     planner = HybridPlanner(net, m=4, h=4, seed=0)
-    results = run_episodes(planner, task_scenes(stage, seeds), seeds, noise, batch_size=1, primers=[net.make_primer()])
+    results = run_episodes(
+        planner, task_scenes(stage, seeds), seeds, noise, batch_size=1, primers=[net.make_primer()], size=net.config.image_size
+    )
     return float(np.mean([r.success for r in results]))
 
 

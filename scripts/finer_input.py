@@ -1,0 +1,32 @@
+"""Turn a trained network into a ``"fine"`` one (128 x 128 input over the same window) that starts
+as it: ``occrl.modules.with_finer_input`` (function-preserving on 2 x 2-repeated images), saved
+as a weights file to train from (``occrl train --net-preset fine --init-weights OUT``).
+
+    python scripts/finer_input.py --weights occnet-takeover --out ~/occrl-runs/occnet-takeover-fine.pt
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from occrl.modules import with_finer_input
+from occrl.modules.weights import load_weights, save_weights
+from occrl.pretrained import weights_file
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--weights", required=True, help="a weights file or a shipped network's name (a network without a stem)")
+    parser.add_argument("--stem-channels", type=int, default=8)
+    parser.add_argument("--out", required=True)
+    args = parser.parse_args()
+    source = weights_file(args.weights)
+    fine = with_finer_input(load_weights(source), args.stem_channels)
+    save_weights(args.out, fine, meta={"finer_input_from": str(args.weights), "stem_channels": args.stem_channels})
+    print(
+        f"{args.out}: {fine.config.image_size} x {fine.config.image_size} input, stem of {args.stem_channels} channels, from {args.weights}"
+    )
+
+
+if __name__ == "__main__":
+    main()
