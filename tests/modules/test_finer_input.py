@@ -1,0 +1,81 @@
+"""The "fine" preset (128 x 128 over the same window) and the conversion of a trained paper network."""
+
+import numpy as np
+import pytest
+import torch
+from tensordict import TensorDict
+
+from occrl.envs import make_env
+from occrl.eval.methods import make_method
+from occrl.eval.runner import rollout_tasks
+from occrl.modules import OccNetConfig, make_occnet, with_finer_input
+from occrl.modules.weights import load_weights, save_weights
+from occrl.planners import HybridPlanner, render_pixels
+
+
+def _repeat(x: torch.Tensor) -> torch.Tensor:
+    return x.repeat_interleave(2, -1).repeat_interleave(2, -2)
+
+
+def _inputs(pixels: torch.Tensor) -> TensorDict:
+    return TensorDict({"pixels": pixels, "is_init": torch.ones(len(pixels), 1, dtype=torch.bool)}, [len(pixels)])
+
+
+def test_the_converted_network_computes_the_same_on_repeated_images():
+    torch.manual_seed(0)
+    net = make_occnet("paper")
+    for p in net.parameters():  # away from the initialisation, as a trained network
+        p.data.add_(0.05 * torch.randn_like(p))
+    fine = with_finer_input(net)
+    assert fine.config.image_size == 128 and fine.config.stem_channels == 8
+    x = torch.rand(4, 3, 64, 64)
+    a, b = net.policy(_inputs(x)), fine.policy(_inputs(_repeat(x)))
+    for key in ("belief", "loc", "scale"):
+        torch.testing.assert_close(a[key], b[key], atol=1e-5, rtol=1e-5)
+    torch.testing.assert_close(net.value(_inputs(x))["state_value"], fine.value(_inputs(_repeat(x)))["state_value"], atol=1e-5, rtol=1e-5)
+    heat64, heat128 = net.heatmap(_inputs(x))["heatmap"], fine.heatmap(_inputs(_repeat(x)))["heatmap"]
+    assert heat128.shape[-2:] == (128, 128)
+    torch.testing.assert_close(heat128, _repeat(heat64), atol=1e-5, rtol=1e-5)
+    # until trained it reads only the pixels at even rows and columns: the finer detail is there
+    # for training to use, not yet used
+    y = torch.rand(4, 3, 128, 128)
+    torch.testing.assert_close(fine.policy(_inputs(y))["loc"], fine.policy(_inputs(_repeat(y[..., ::2, ::2])))["loc"], atol=1e-5, rtol=1e-5)
+
+
+def test_the_new_stem_channels_learn_from_the_first_gradient():
+    fine = with_finer_input(make_occnet("paper")).train()
+    loss = fine.value(_inputs(torch.rand(4, 3, 128, 128)))["state_value"].sum()
+    loss.backward()
+    first = fine.encoder.module.net[2]  # the first paper stage's conv, fed by the stem
+    assert first.weight.grad[:, 3:].abs().sum() > 0  # its zero weights on the new channels get a gradient
+    assert (first.weight[:, 3:] == 0).all()
+
+
+def test_conversion_errors_name_the_problem():
+    with pytest.raises(ValueError, match="already has a stem of 8 channels"):
+        with_finer_input(make_occnet("fine"))
+    with pytest.raises(ValueError, match="stem_channels must be >= 3"):
+        with_finer_input(make_occnet("paper"), stem_channels=2)
+    with pytest.raises(ValueError, match="image_size must be a multiple of 16"):
+        OccNetConfig(image_size=120, stem_channels=8)
+    with pytest.raises(ValueError, match="stem_channels must be >= 0"):
+        OccNetConfig(stem_channels=-1)
+
+
+def test_a_fine_network_runs_in_the_env_the_planner_and_the_evaluation(tmp_path):
+    path = tmp_path / "fine.pt"
+    save_weights(path, with_finer_input(make_occnet("paper")))
+    net = load_weights(path)
+    # the planner's imagined image is the env's, at the network's size
+    env = make_env(batch_size=2, stage=2, seed=0, heatmap_target=False, size=net.config.image_size)
+    td = env.reset()
+    assert td["pixels"].shape == (2, 3, 128, 128)
+    assert torch.equal(render_pixels(env.base_env.worlds, 128), td["pixels"])
+    planner = HybridPlanner(net, m=2, h=2, seed=0)
+    out = planner(env.append_transform(net.make_primer()).reset())
+    assert out["action"].shape == (2, 4)
+    # an evaluation builds the env at the method's size
+    method = make_method("stochastic-gen", path)
+    assert method.image_size == 128 and make_method("stochastic-gen").image_size == 64
+    rollout = rollout_tasks(method, 2, [10_000_000], steps=3)
+    assert rollout["pixels"].shape[-2:] == (128, 128) and np.isfinite(rollout["action"].numpy()).all()
