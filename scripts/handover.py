@@ -36,7 +36,7 @@ from occrl.eval.methods import make_method
 from occrl.baselines.handover import SearchThenRetrieve
 from occrl.baselines.observed_clearing import ObservedClearingRetriever
 from occrl.envs.episodes import run_episodes, task_scenes
-from occrl.eval.runner import EVAL_SEED_BASE, summarize
+from occrl.eval.runner import EVAL_SEED_BASE, exclusive_wins, mcnemar_p, summarize
 from occrl.pretrained import weights_file
 
 
@@ -80,11 +80,12 @@ def main() -> None:
         length = {e["seed"]: e["actions"] for e in episodes}
         same = [length[r.seed] == r.actions and base[r.seed] == r.success for r, h in zip(results, handed) if not h and r.seed in base]
         print(f"tasks never handed over: {len(same)}, of them equal to the planner's own episode: {sum(same)}")
-        both = [(base[r.seed], bool(r.success)) for r in results if r.seed in base]
-        own = np.mean([b for b, _ in both])
-        gained = sum(1 for b, h in both if h and not b)
-        lost = sum(1 for b, h in both if b and not h)
-        print(f"the planner alone on the same {len(both)} tasks: {100 * own:.1f} %; the hand-over wins {gained}, loses {lost}")
+        tasks, gained, lost = exclusive_wins(report["episodes"], episodes)
+        own = np.mean([base[r.seed] for r in results if r.seed in base])
+        print(
+            f"the planner alone on the same {tasks} tasks: {100 * own:.1f} %; the hand-over wins {gained}, loses {lost} "
+            f"(McNemar p = {mcnemar_p(gained, lost):.3f})"
+        )
         report["baseline"] = {"file": args.baseline, "success_rate": float(own), "gained": gained, "lost": lost}
     if args.out:
         with open(args.out, "w") as f:

@@ -96,6 +96,14 @@ def test_image_limited_retriever_reads_the_target_from_the_image(tmp_path):
     assert [e["seed"] for e in report["episodes"]] == [10_000_000, 10_000_001] and report["windows"][1] == [32, 0.4, 0.1]
 
 
+def test_handover_pairs_its_episodes_with_the_planners_own(tmp_path):
+    baseline = _result(tmp_path / "b.json", "hybrid-4x4", 1, [False, True])
+    out = _run("scripts/handover.py", "--stage", "1", "--tasks", "2", "--baseline", str(baseline))
+    # both stage-1 tasks are solved after the hand-over: one more than the recorded baseline
+    assert "hybrid 4x4 -> scripted at the first detection, stage 1: 100.0 %" in out
+    assert "the planner alone on the same 2 tasks: 50.0 %; the hand-over wins 1, loses 0 (McNemar p = 1.000)" in out
+
+
 def test_planner_decisions_prints_every_decision():
     out = _run("scripts/planner_decisions.py", "--method", "hybrid-2x2", "--stage", "1", "--seed", "3", "--steps", "2")
     assert out.count("step ") == 2 and out.count("    root 0: returns") == 2
