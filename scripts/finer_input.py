@@ -18,11 +18,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--weights", required=True, help="a weights file or a shipped network's name (a network without a stem)")
     parser.add_argument("--stem-channels", type=int, default=8)
+    parser.add_argument("--seed", type=int, default=0, help="draws the new stem channels' weights")
     parser.add_argument("--out", required=True)
     args = parser.parse_args()
     source = weights_file(args.weights)
-    fine = with_finer_input(load_weights(source), args.stem_channels)
-    save_weights(args.out, fine, meta={"finer_input_from": str(args.weights), "stem_channels": args.stem_channels})
+    fine = with_finer_input(load_weights(source), args.stem_channels, args.seed)
+    save_weights(args.out, fine, meta={"finer_input_from": str(args.weights), "stem_channels": args.stem_channels, "seed": args.seed})
     print(
         f"{args.out}: {fine.config.image_size} x {fine.config.image_size} input, stem of {args.stem_channels} channels, from {args.weights}"
     )

@@ -52,8 +52,20 @@ class ConvEncoder(nn.Module):
             layers += [nn.LeakyReLU(), nn.MaxPool2d(2)]
             c = out
         self.net = nn.Sequential(*layers)
+        self.stem_channels = stem_channels
         side = image_size // 2 ** len(channels)
         self.out_features = c * side * side
+
+    @property
+    def stem(self) -> nn.Conv2d | None:
+        """The stride-2 stem's conv (None without a stem)."""
+        return self.net[0] if self.stem_channels else None
+
+    @property
+    def stage_convs(self) -> list[nn.Conv2d]:
+        """The conv of each stage, in order (the stem's not included)."""
+        convs = [m for m in self.net if isinstance(m, nn.Conv2d)]
+        return convs[1:] if self.stem_channels else convs
 
     def forward(self, pixels: torch.Tensor) -> torch.Tensor:
         lead = pixels.shape[:-3]

@@ -13,6 +13,7 @@ fine --init-weights W``) starts from the trained behaviour with room to use the 
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import torch
@@ -24,12 +25,14 @@ __all__ = ["with_finer_input"]
 
 
 @torch.no_grad()
-def with_finer_input(net: OccNet, stem_channels: int = 8) -> OccNet:
+def with_finer_input(net: OccNet, stem_channels: int = 8, seed: int = 0) -> OccNet:
     """A network on twice the image size that starts as ``net`` (see the module docstring).
 
     Args:
         net: a network without a stem (``net.config.stem_channels == 0``), e.g. the paper's.
         stem_channels: the stem's channels (>= 3: three of them carry the image on).
+        seed: draws the other stem channels' weights (uniform within PyTorch's default bound for
+            a conv, 1 / sqrt(fan-in)): the same network and seed give the same result.
 
     Returns:
         The new network in eval mode; ``net`` is left as it was.
@@ -54,21 +57,33 @@ def with_finer_input(net: OccNet, stem_channels: int = 8) -> OccNet:
     if stem_channels < 3:
         raise ValueError(f"stem_channels must be >= 3 (three carry the image's colours on), got {stem_channels}")
     fine = OccNet(replace(net.config, image_size=2 * net.config.image_size, stem_channels=stem_channels))
-    old, new = net.encoder.module.net, fine.encoder.module.net
-    stem = new[0]
+    old, new = net.encoder.module, fine.encoder.module
+    stem = new.stem
+    generator = torch.Generator().manual_seed(int(seed))
+    bound = 1.0 / math.sqrt(stem.weight[0].numel())
+    stem.weight.copy_((2 * torch.rand(stem.weight.shape, generator=generator) - 1) * bound)
+    stem.bias.copy_((2 * torch.rand(stem.bias.shape, generator=generator) - 1) * bound)
     nn.init.zeros_(stem.weight[:3])
     nn.init.zeros_(stem.bias[:3])
     for c in range(3):
         stem.weight[c, c, 1, 1] = 1.0  # the colour at the even row and column, unchanged
-    first = new[2]
-    first.weight.zero_()
-    first.weight[:, :3] = old[0].weight
-    first.bias.copy_(old[0].bias)
-    for k in range(1, len(old)):  # the paper's stages after their first conv, as they were
-        new[k + 2].load_state_dict(old[k].state_dict())
+    # the paper's layers after the stem, as they were, but the first conv takes the stem's
+    # channels: the original weights on the three that carry the image, zeros on the others
+    state = old.net.state_dict()
+    first = torch.zeros_like(new.stage_convs[0].weight)
+    first[:, :3] = state["0.weight"]
+    state["0.weight"] = first
+    shift = len(new.net) - len(old.net)  # the stem's layers come first
+    new.net.load_state_dict({**new.net[:shift].state_dict(), **{_shifted(k, shift): v for k, v in state.items()}})
     fine.lstm.load_state_dict(net.lstm.state_dict())
     fine.actor.load_state_dict(net.actor.state_dict())
     fine.critic.load_state_dict(net.critic.state_dict())
     if net.heatmap_head is not None:
         fine.heatmap_head.load_state_dict(net.heatmap_head.state_dict())
     return fine.eval()
+
+
+def _shifted(key: str, shift: int) -> str:
+    """A ``Sequential`` state-dict key (``"4.weight"``) for the layer ``shift`` places later."""
+    index, rest = key.split(".", 1)
+    return f"{int(index) + shift}.{rest}"

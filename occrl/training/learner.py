@@ -47,8 +47,8 @@ class Learner:
         if config.stem_lr > 0:
             if not net.config.stem_channels:
                 raise ValueError(f"stem_lr={config.stem_lr} needs a network with a stem (net_preset 'fine'), got stem_channels=0")
-            layers = net.encoder.module.net
-            stem = [p for layer in (layers[0], layers[2]) for p in layer.parameters()]  # the stem and the conv it feeds
+            encoder = net.encoder.module
+            stem = [p for layer in (encoder.stem, encoder.stage_convs[0]) for p in layer.parameters()]  # the stem and the conv it feeds
             rest = [p for p in params if all(p is not q for q in stem)]
             params = [{"params": stem, "lr": config.stem_lr}, {"params": rest}]
         if config.optimizer == "rmsprop":

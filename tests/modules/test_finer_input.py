@@ -46,9 +46,16 @@ def test_the_new_stem_channels_learn_from_the_first_gradient():
     fine = with_finer_input(make_occnet("paper")).train()
     loss = fine.value(_inputs(torch.rand(4, 3, 128, 128)))["state_value"].sum()
     loss.backward()
-    first = fine.encoder.module.net[2]  # the first paper stage's conv, fed by the stem
+    first = fine.encoder.module.stage_convs[0]  # the first paper stage's conv, fed by the stem
     assert first.weight.grad[:, 3:].abs().sum() > 0  # its zero weights on the new channels get a gradient
     assert (first.weight[:, 3:] == 0).all()
+
+
+def test_the_conversion_is_reproducible():
+    net = make_occnet("paper")
+    a, b, c = with_finer_input(net, seed=0), with_finer_input(net, seed=0), with_finer_input(net, seed=1)
+    assert all(torch.equal(x, y) for x, y in zip(a.state_dict().values(), b.state_dict().values()))
+    assert not torch.equal(a.encoder.module.stem.weight, c.encoder.module.stem.weight)
 
 
 def test_conversion_errors_name_the_problem():

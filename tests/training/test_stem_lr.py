@@ -13,8 +13,8 @@ def test_the_stem_and_the_conv_it_feeds_get_their_own_learning_rate():
     learner = Learner(net, get_train_config("tiny", optimizer="adam", lr=3e-5, stem_lr=3e-4), torch.device("cpu"))
     stem, rest = learner.optimizer.param_groups
     assert stem["lr"] == 3e-4 and rest["lr"] == 3e-5
-    layers = net.encoder.module.net
-    assert {id(p) for p in stem["params"]} == {id(p) for layer in (layers[0], layers[2]) for p in layer.parameters()}
+    encoder = net.encoder.module
+    assert {id(p) for p in stem["params"]} == {id(p) for layer in (encoder.stem, encoder.stage_convs[0]) for p in layer.parameters()}
     assert len(stem["params"]) + len(rest["params"]) == len(list(net.parameters()))
     # without stem_lr one group at lr, as before
     (only,) = Learner(net, get_train_config("tiny", optimizer="adam", lr=3e-5), torch.device("cpu")).optimizer.param_groups
