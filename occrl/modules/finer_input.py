@@ -1,14 +1,13 @@
 """A trained network, given twice the pixels: the paper network turned into a ``"fine"`` one.
 
 The ``"fine"`` preset (:data:`~occrl.modules.PRESETS`) reads the same 0.8 m window at 128 x 128
-(6.25 mm per pixel instead of 12.5) through a stride-2 stem in front of the paper's encoder, and
-decodes its heat-map at 64 x 64, repeated 2 x 2. :func:`with_finer_input` builds one from a
-trained paper network so that it computes exactly what the paper network computes whenever each
-pixel of the 64 x 64 image is repeated 2 x 2: the stem's first three channels copy the pixel at
-the even row and column (a one at the kernel's centre), its other channels start at random and
-reach the first stage through zero weights (so they change nothing yet, but learn from the first
-gradient), and every other weight is the original's. Training from it (``occrl train --net-preset
-fine --init-weights W``) starts from the trained behaviour with room to use the finer detail.
+(6.25 mm per pixel instead of 12.5): the paper's encoder runs on every other pixel and a detail
+branch on all of them adds to its first stage (:class:`~occrl.modules.ConvEncoder`); the heat-map
+is decoded at 64 x 64 and repeated 2 x 2. :func:`with_finer_input` builds one from a trained
+paper network: every weight of the paper network as it was, the detail branch new (its last conv
+at zero), so the fine network computes exactly what the paper network computes on the even rows
+and columns of its image, and training (``occrl train --net-preset fine --init-weights W
+[--detail-lr R]``) starts from the trained behaviour with room to use the finer detail.
 """
 
 from __future__ import annotations
@@ -17,7 +16,6 @@ import math
 from dataclasses import replace
 
 import torch
-from torch import nn
 
 from occrl.modules.occnet import OccNet
 
@@ -25,14 +23,14 @@ __all__ = ["with_finer_input"]
 
 
 @torch.no_grad()
-def with_finer_input(net: OccNet, stem_channels: int = 8, seed: int = 0) -> OccNet:
+def with_finer_input(net: OccNet, detail_channels: int = 8, seed: int = 0) -> OccNet:
     """A network on twice the image size that starts as ``net`` (see the module docstring).
 
     Args:
-        net: a network without a stem (``net.config.stem_channels == 0``), e.g. the paper's.
-        stem_channels: the stem's channels (>= 3: three of them carry the image on).
-        seed: draws the other stem channels' weights (uniform within PyTorch's default bound for
-            a conv, 1 / sqrt(fan-in)): the same network and seed give the same result.
+        net: a network without a detail branch (``net.config.detail_channels == 0``), e.g. the paper's.
+        detail_channels: the detail branch's channels.
+        seed: draws the branch's first conv (uniform within PyTorch's default bound for a conv,
+            1 / sqrt(fan-in)): the same network and seed give the same result.
 
     Returns:
         The new network in eval mode; ``net`` is left as it was.
@@ -43,47 +41,24 @@ def with_finer_input(net: OccNet, stem_channels: int = 8, seed: int = 0) -> OccN
         >>> from occrl.modules import make_occnet, with_finer_input
         >>> net = make_occnet("paper")
         >>> fine = with_finer_input(net)
-        >>> fine.config.image_size, fine.config.stem_channels
+        >>> fine.config.image_size, fine.config.detail_channels
         (128, 8)
-        >>> x = torch.rand(2, 3, 64, 64)
+        >>> x = torch.rand(2, 3, 128, 128)
         >>> td = lambda px: TensorDict({"pixels": px, "is_init": torch.ones(2, 1, dtype=torch.bool)}, [2])
-        >>> a = net.value(td(x))["state_value"]
-        >>> b = fine.value(td(x.repeat_interleave(2, -1).repeat_interleave(2, -2)))["state_value"]
-        >>> torch.allclose(a, b, atol=1e-5)
+        >>> torch.equal(fine.value(td(x))["state_value"], net.value(td(x[..., ::2, ::2]))["state_value"])
         True
     """
-    if net.config.stem_channels:
-        raise ValueError(f"the network already has a stem of {net.config.stem_channels} channels; give a network without one")
-    if stem_channels < 3:
-        raise ValueError(f"stem_channels must be >= 3 (three carry the image's colours on), got {stem_channels}")
-    fine = OccNet(replace(net.config, image_size=2 * net.config.image_size, stem_channels=stem_channels))
-    old, new = net.encoder.module, fine.encoder.module
-    stem = new.stem
+    if net.config.detail_channels:
+        raise ValueError(f"the network already has a detail branch of {net.config.detail_channels} channels; give one without")
+    if detail_channels < 1:
+        raise ValueError(f"detail_channels must be >= 1, got {detail_channels}")
+    fine = OccNet(replace(net.config, image_size=2 * net.config.image_size, detail_channels=detail_channels))
+    missing, unexpected = fine.load_state_dict(net.state_dict(), strict=False)
+    if unexpected or any(".detail." not in key for key in missing):  # pragma: no cover - a programming error
+        raise RuntimeError(f"the paper network's weights do not map onto the fine one: missing {missing}, unexpected {unexpected}")
+    first = fine.encoder.module.detail[0]
     generator = torch.Generator().manual_seed(int(seed))
-    bound = 1.0 / math.sqrt(stem.weight[0].numel())
-    stem.weight.copy_((2 * torch.rand(stem.weight.shape, generator=generator) - 1) * bound)
-    stem.bias.copy_((2 * torch.rand(stem.bias.shape, generator=generator) - 1) * bound)
-    nn.init.zeros_(stem.weight[:3])
-    nn.init.zeros_(stem.bias[:3])
-    for c in range(3):
-        stem.weight[c, c, 1, 1] = 1.0  # the colour at the even row and column, unchanged
-    # the paper's layers after the stem, as they were, but the first conv takes the stem's
-    # channels: the original weights on the three that carry the image, zeros on the others
-    state = old.net.state_dict()
-    first = torch.zeros_like(new.stage_convs[0].weight)
-    first[:, :3] = state["0.weight"]
-    state["0.weight"] = first
-    shift = len(new.net) - len(old.net)  # the stem's layers come first
-    new.net.load_state_dict({**new.net[:shift].state_dict(), **{_shifted(k, shift): v for k, v in state.items()}})
-    fine.lstm.load_state_dict(net.lstm.state_dict())
-    fine.actor.load_state_dict(net.actor.state_dict())
-    fine.critic.load_state_dict(net.critic.state_dict())
-    if net.heatmap_head is not None:
-        fine.heatmap_head.load_state_dict(net.heatmap_head.state_dict())
+    bound = 1.0 / math.sqrt(first.weight[0].numel())
+    first.weight.copy_((2 * torch.rand(first.weight.shape, generator=generator) - 1) * bound)
+    first.bias.copy_((2 * torch.rand(first.bias.shape, generator=generator) - 1) * bound)
     return fine.eval()
-
-
-def _shifted(key: str, shift: int) -> str:
-    """A ``Sequential`` state-dict key (``"4.weight"``) for the layer ``shift`` places later."""
-    index, rest = key.split(".", 1)
-    return f"{int(index) + shift}.{rest}"

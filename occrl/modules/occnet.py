@@ -74,18 +74,19 @@ class OccNetConfig:
     heatmap: bool = True
     batch_norm: bool = True
     action_dim: int = C.ACTION_DIM
-    stem_channels: int = 0
-    """0: the paper's encoder on ``image_size`` pixels. > 0: a stride-2 stem of that many channels
-    halves the image first (:class:`~occrl.modules.ConvEncoder`) and the heat-map is decoded at
-    half the size and repeated 2 x 2: the ``"fine"`` preset's 128 x 128 window."""
+    detail_channels: int = 0
+    """0: the paper's encoder on ``image_size`` pixels. > 0: the paper's encoder on every other
+    pixel plus a detail branch of that many channels on all of them
+    (:class:`~occrl.modules.ConvEncoder`), and the heat-map decoded at half the size and repeated
+    2 x 2: the ``"fine"`` preset's 128 x 128 window."""
 
     def __post_init__(self) -> None:
-        if self.stem_channels < 0:
-            raise ValueError(f"stem_channels must be >= 0, got {self.stem_channels}")
-        factor = 2 ** len(self.conv_channels) * (2 if self.stem_channels else 1)
+        if self.detail_channels < 0:
+            raise ValueError(f"detail_channels must be >= 0, got {self.detail_channels}")
+        factor = 2 ** len(self.conv_channels) * (2 if self.detail_channels else 1)
         if self.image_size < factor or self.image_size % factor:
             raise ValueError(
-                f"image_size must be a multiple of {factor} (2 per conv stage{' and the stem' if self.stem_channels else ''}), "
+                f"image_size must be a multiple of {factor} (2 per conv stage{' and 2 for the detail branch' if self.detail_channels else ''}), "
                 f"got {self.image_size}"
             )
 
@@ -95,10 +96,10 @@ class OccNetConfig:
 
 PRESETS: dict[str, OccNetConfig] = {
     "paper": OccNetConfig(),
-    # beyond the paper: the same 0.8 m window at 128 x 128 (6.25 mm per pixel) through a stride-2
-    # stem (docs/decisions.md, "what its image can tell it"); occrl.modules.with_finer_input
-    # turns a paper network into one, unchanged on 2 x 2-repeated images
-    "fine": OccNetConfig(image_size=128, stem_channels=8),
+    # beyond the paper: the same 0.8 m window at 128 x 128 (6.25 mm per pixel), the paper's encoder
+    # on every other pixel plus a detail branch (docs/decisions.md, "what its image can tell it");
+    # occrl.modules.with_finer_input turns a trained paper network into one that starts as it
+    "fine": OccNetConfig(image_size=128, detail_channels=8),
 }
 
 
@@ -129,7 +130,7 @@ class OccNet(nn.Module):
     def __init__(self, config: OccNetConfig) -> None:
         super().__init__()
         self.config = config
-        encoder = ConvEncoder(3, config.conv_channels, config.image_size, config.batch_norm, config.stem_channels)
+        encoder = ConvEncoder(3, config.conv_channels, config.image_size, config.batch_norm, config.detail_channels)
         self.encoder = TensorDictModule(encoder, in_keys=["pixels"], out_keys=["embed"])
         self.lstm = LSTMModule(input_size=encoder.out_features, hidden_size=config.lstm_hidden, in_key="embed", out_key="belief")
         self.trunk = TensorDictSequential(self.encoder, self.lstm)
@@ -148,7 +149,7 @@ class OccNet(nn.Module):
         if config.heatmap:
             self.heatmap_head = TensorDictSequential(
                 TensorDictModule(
-                    HeatmapHead(config.lstm_hidden, config.heatmap_channels, config.image_size, 2 if config.stem_channels else 1),
+                    HeatmapHead(config.lstm_hidden, config.heatmap_channels, config.image_size, 2 if config.detail_channels else 1),
                     in_keys=["belief"],
                     out_keys=["heatmap_logits"],
                 ),

@@ -66,10 +66,9 @@ class TrainConfig:
     """"rmsprop" (the paper) or "adam"."""
     lr: float = 5e-5
     """Learning rate."""
-    stem_lr: float = 0.0
-    """Learning rate of a ``"fine"`` network's stride-2 stem and of the first conv stage it feeds
-    (the weights :func:`occrl.modules.with_finer_input` adds start at zero; beyond the paper); 0:
-    ``lr``."""
+    detail_lr: float = 0.0
+    """Learning rate of a ``"fine"`` network's detail branch (new weights next to trained ones when
+    the run starts from :func:`occrl.modules.with_finer_input`; beyond the paper); 0: ``lr``."""
     epochs: int = 4
     """PPO epochs over each collected batch."""
     minibatch_envs: int = 10

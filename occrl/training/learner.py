@@ -44,13 +44,14 @@ class Learner:
             heatmap_fraction=config.heatmap_fraction,
         )
         params: list = list(net.parameters())
-        if config.stem_lr > 0:
-            if not net.config.stem_channels:
-                raise ValueError(f"stem_lr={config.stem_lr} needs a network with a stem (net_preset 'fine'), got stem_channels=0")
-            encoder = net.encoder.module
-            stem = [p for layer in (encoder.stem, encoder.stage_convs[0]) for p in layer.parameters()]  # the stem and the conv it feeds
-            rest = [p for p in params if all(p is not q for q in stem)]
-            params = [{"params": stem, "lr": config.stem_lr}, {"params": rest}]
+        if config.detail_lr > 0:
+            if not net.config.detail_channels:
+                raise ValueError(
+                    f"detail_lr={config.detail_lr} needs a network with a detail branch (net_preset 'fine'), got detail_channels=0"
+                )
+            detail = list(net.encoder.module.detail.parameters())
+            rest = [p for p in params if all(p is not q for q in detail)]
+            params = [{"params": detail, "lr": config.detail_lr}, {"params": rest}]
         if config.optimizer == "rmsprop":
             self.optimizer = torch.optim.RMSprop(params, lr=config.lr)
         elif config.optimizer == "adam":

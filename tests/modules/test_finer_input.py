@@ -21,52 +21,51 @@ def _inputs(pixels: torch.Tensor) -> TensorDict:
     return TensorDict({"pixels": pixels, "is_init": torch.ones(len(pixels), 1, dtype=torch.bool)}, [len(pixels)])
 
 
-def test_the_converted_network_computes_the_same_on_repeated_images():
+def test_the_converted_network_computes_the_same_on_the_even_pixels():
     torch.manual_seed(0)
     net = make_occnet("paper")
     for p in net.parameters():  # away from the initialisation, as a trained network
         p.data.add_(0.05 * torch.randn_like(p))
     fine = with_finer_input(net)
-    assert fine.config.image_size == 128 and fine.config.stem_channels == 8
-    x = torch.rand(4, 3, 64, 64)
-    a, b = net.policy(_inputs(x)), fine.policy(_inputs(_repeat(x)))
+    assert fine.config.image_size == 128 and fine.config.detail_channels == 8
+    x = torch.rand(4, 3, 128, 128)
+    coarse = x[..., ::2, ::2]
+    a, b = net.policy(_inputs(coarse)), fine.policy(_inputs(x))
     for key in ("belief", "loc", "scale"):
-        torch.testing.assert_close(a[key], b[key], atol=1e-5, rtol=1e-5)
-    torch.testing.assert_close(net.value(_inputs(x))["state_value"], fine.value(_inputs(_repeat(x)))["state_value"], atol=1e-5, rtol=1e-5)
-    heat64, heat128 = net.heatmap(_inputs(x))["heatmap"], fine.heatmap(_inputs(_repeat(x)))["heatmap"]
-    assert heat128.shape[-2:] == (128, 128)
-    torch.testing.assert_close(heat128, _repeat(heat64), atol=1e-5, rtol=1e-5)
-    # until trained it reads only the pixels at even rows and columns: the finer detail is there
-    # for training to use, not yet used
-    y = torch.rand(4, 3, 128, 128)
-    torch.testing.assert_close(fine.policy(_inputs(y))["loc"], fine.policy(_inputs(_repeat(y[..., ::2, ::2])))["loc"], atol=1e-5, rtol=1e-5)
+        assert torch.equal(a[key], b[key])
+    assert torch.equal(net.value(_inputs(coarse))["state_value"], fine.value(_inputs(x))["state_value"])
+    heat64, heat128 = net.heatmap(_inputs(coarse))["heatmap"], fine.heatmap(_inputs(x))["heatmap"]
+    assert heat128.shape[-2:] == (128, 128) and torch.equal(heat128, _repeat(heat64))
 
 
-def test_the_new_stem_channels_learn_from_the_first_gradient():
+def test_the_detail_branch_learns_from_the_first_gradient():
     fine = with_finer_input(make_occnet("paper")).train()
-    loss = fine.value(_inputs(torch.rand(4, 3, 128, 128)))["state_value"].sum()
-    loss.backward()
-    first = fine.encoder.module.stage_convs[0]  # the first paper stage's conv, fed by the stem
-    assert first.weight.grad[:, 3:].abs().sum() > 0  # its zero weights on the new channels get a gradient
-    assert (first.weight[:, 3:] == 0).all()
+    fine.value(_inputs(torch.rand(4, 3, 128, 128)))["state_value"].sum().backward()
+    last = fine.encoder.module.detail[2]  # starts at zero, so the branch adds nothing yet
+    assert (last.weight == 0).all() and last.weight.grad.abs().sum() > 0
+    # once it has moved, the network reads the odd pixels too
+    last.weight.data.normal_(0.0, 0.1)
+    y = torch.rand(4, 3, 128, 128)
+    with torch.no_grad():
+        assert not torch.equal(fine.eval().value(_inputs(y))["state_value"], fine.value(_inputs(_repeat(y[..., ::2, ::2])))["state_value"])
 
 
 def test_the_conversion_is_reproducible():
     net = make_occnet("paper")
     a, b, c = with_finer_input(net, seed=0), with_finer_input(net, seed=0), with_finer_input(net, seed=1)
     assert all(torch.equal(x, y) for x, y in zip(a.state_dict().values(), b.state_dict().values()))
-    assert not torch.equal(a.encoder.module.stem.weight, c.encoder.module.stem.weight)
+    assert not torch.equal(a.encoder.module.detail[0].weight, c.encoder.module.detail[0].weight)
 
 
 def test_conversion_errors_name_the_problem():
-    with pytest.raises(ValueError, match="already has a stem of 8 channels"):
+    with pytest.raises(ValueError, match="already has a detail branch of 8 channels"):
         with_finer_input(make_occnet("fine"))
-    with pytest.raises(ValueError, match="stem_channels must be >= 3"):
-        with_finer_input(make_occnet("paper"), stem_channels=2)
+    with pytest.raises(ValueError, match="detail_channels must be >= 1"):
+        with_finer_input(make_occnet("paper"), detail_channels=0)
     with pytest.raises(ValueError, match="image_size must be a multiple of 16"):
-        OccNetConfig(image_size=120, stem_channels=8)
-    with pytest.raises(ValueError, match="stem_channels must be >= 0"):
-        OccNetConfig(stem_channels=-1)
+        OccNetConfig(image_size=120, detail_channels=8)
+    with pytest.raises(ValueError, match="detail_channels must be >= 0"):
+        OccNetConfig(detail_channels=-1)
 
 
 def test_a_fine_network_runs_in_the_env_the_planner_and_the_evaluation(tmp_path):
