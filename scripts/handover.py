@@ -28,7 +28,6 @@ import time
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-import numpy as np
 import torch
 from tqdm import tqdm
 
@@ -36,7 +35,7 @@ from occrl.eval.methods import make_method
 from occrl.baselines.handover import SearchThenRetrieve
 from occrl.baselines.observed_clearing import ObservedClearingRetriever
 from occrl.envs.episodes import run_episodes, task_scenes
-from occrl.eval.runner import EVAL_SEED_BASE, exclusive_wins, mcnemar_p, summarize
+from occrl.eval.runner import EVAL_SEED_BASE, paired_with, summarize
 from occrl.pretrained import weights_file
 
 
@@ -80,13 +79,12 @@ def main() -> None:
         length = {e["seed"]: e["actions"] for e in episodes}
         same = [length[r.seed] == r.actions and base[r.seed] == r.success for r, h in zip(results, handed) if not h and r.seed in base]
         print(f"tasks never handed over: {len(same)}, of them equal to the planner's own episode: {sum(same)}")
-        tasks, gained, lost = exclusive_wins(report["episodes"], episodes)
-        own = np.mean([base[r.seed] for r in results if r.seed in base])
+        pair = paired_with(report["episodes"], episodes)
         print(
-            f"the planner alone on the same {tasks} tasks: {100 * own:.1f} %; the hand-over wins {gained}, loses {lost} "
-            f"(McNemar p = {mcnemar_p(gained, lost):.3f})"
+            f"the planner alone on the same {pair['tasks']} tasks: {100 * pair['baseline_success_rate']:.1f} %; the hand-over wins "
+            f"{pair['only_run']}, loses {pair['only_baseline']} (McNemar p = {pair['p']:.3f})"
         )
-        report["baseline"] = {"file": args.baseline, "success_rate": float(own), "gained": gained, "lost": lost}
+        report["baseline"] = {"file": args.baseline, **pair}
     if args.out:
         with open(args.out, "w") as f:
             json.dump(report, f, indent=1)

@@ -46,7 +46,7 @@ from occrl.envs.geometry import transform_polygons
 from occrl.envs.perception import detected_polygons
 from occrl.envs.render import LABELS, Canvas, render_labels_at
 from occrl.envs.robot_frame import DEFAULT_FORWARD_OFFSET, DEFAULT_SIZE, DEFAULT_WINDOW, robot_centric_points
-from occrl.eval.runner import EVAL_SEED_BASE, exclusive_wins, mcnemar_p, summarize
+from occrl.eval.runner import EVAL_SEED_BASE, paired_with, summarize
 
 
 def area_centroid(polygon: np.ndarray) -> np.ndarray:
@@ -159,15 +159,12 @@ def main() -> None:
         {"seed": r.seed, "success": bool(r.success), "actions": int(r.actions), "dropped": bool(r.dropped)} for r in results
     ]
     if args.baseline:
-        baseline = json.loads(open(args.baseline).read())["episodes"]
-        tasks, only_image, only_truth = exclusive_wins(report["episodes"], baseline)
-        ran = {r.seed for r in results}
-        own = 100 * np.mean([e["success"] for e in baseline if e["seed"] in ran])
+        pair = paired_with(report["episodes"], json.loads(open(args.baseline).read())["episodes"])
         print(
-            f"reading the true pose on the same {tasks} tasks: {own:.1f} %; solved only from the image: {only_image}, "
-            f"only from the true pose: {only_truth} (McNemar p = {mcnemar_p(only_image, only_truth):.3f})"
+            f"reading the true pose on the same {pair['tasks']} tasks: {100 * pair['baseline_success_rate']:.1f} %; solved only "
+            f"from the image: {pair['only_run']}, only from the true pose: {pair['only_baseline']} (McNemar p = {pair['p']:.3f})"
         )
-        report["baseline"] = {"file": args.baseline, "success_rate": own / 100, "only_image": only_image, "only_truth": only_truth}
+        report["baseline"] = {"file": args.baseline, **pair}
     if args.out:
         with open(args.out, "w") as f:
             json.dump(report, f, indent=1)

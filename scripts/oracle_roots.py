@@ -41,7 +41,7 @@ from tqdm import tqdm
 from occrl.envs import SceneObject
 from occrl.envs.episodes import run_episodes, task_scenes
 from occrl.eval.methods import make_method
-from occrl.eval.runner import EVAL_SEED_BASE, exclusive_wins, mcnemar_p, summarize
+from occrl.eval.runner import EVAL_SEED_BASE, paired_with, summarize
 from occrl.envs import world_constants as C
 from occrl.planners import HybridPlanner, RecreatedState, Root, recreate, with_target
 from occrl.planners.rhp import NetworkStepper
@@ -128,15 +128,12 @@ def main() -> None:
         {"seed": r.seed, "success": bool(r.success), "actions": int(r.actions), "dropped": bool(r.dropped)} for r in results
     ]
     if args.baseline:
-        baseline = json.loads(open(args.baseline).read())["episodes"]
-        tasks, only_oracle, only_planner = exclusive_wins(report["episodes"], baseline)
-        ran = {r.seed for r in results}
-        own = 100 * np.mean([e["success"] for e in baseline if e["seed"] in ran])
+        pair = paired_with(report["episodes"], json.loads(open(args.baseline).read())["episodes"])
         print(
-            f"the planner's own roots on the same {tasks} tasks: {own:.1f} %; solved only from the true {args.roots}: "
-            f"{only_oracle}, only by the planner: {only_planner} (McNemar p = {mcnemar_p(only_oracle, only_planner):.3f})"
+            f"the planner's own roots on the same {pair['tasks']} tasks: {100 * pair['baseline_success_rate']:.1f} %; solved only "
+            f"from the true {args.roots}: {pair['only_run']}, only by the planner: {pair['only_baseline']} (McNemar p = {pair['p']:.3f})"
         )
-        report["baseline"] = {"file": args.baseline, "success_rate": own / 100, "only_oracle": only_oracle, "only_planner": only_planner}
+        report["baseline"] = {"file": args.baseline, **pair}
     if args.out:
         with open(args.out, "w") as f:
             json.dump(report, f, indent=1)

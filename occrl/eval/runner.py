@@ -78,6 +78,25 @@ def exclusive_wins(a: Sequence[dict], b: Sequence[dict]) -> tuple[int, int, int]
     return len(pairs), sum(x and not y for x, y in pairs), sum(y and not x for x, y in pairs)
 
 
+def paired_with(episodes: Sequence[dict], baseline: Sequence[dict]) -> dict:
+    """A run's episodes against a baseline's on the same tasks (matched by seed, as
+    :func:`exclusive_wins`): the tasks both ran, the baseline's success rate on them, the tasks
+    only each solved and the exact McNemar p-value.
+
+    Examples:
+        >>> from occrl.eval.runner import paired_with
+        >>> a = [{"seed": 1, "success": True}, {"seed": 2, "success": True}, {"seed": 3, "success": False}]
+        >>> b = [{"seed": 2, "success": False}, {"seed": 3, "success": True}, {"seed": 4, "success": True}]
+        >>> paired_with(a, b)
+        {'tasks': 2, 'baseline_success_rate': 0.5, 'only_run': 1, 'only_baseline': 1, 'p': 1.0}
+    """
+    tasks, only_run, only_baseline = exclusive_wins(episodes, baseline)
+    ran = {e["seed"] for e in episodes}
+    solved = [bool(e["success"]) for e in baseline if e["seed"] in ran]
+    rate = sum(solved) / len(solved) if solved else float("nan")
+    return {"tasks": tasks, "baseline_success_rate": rate, "only_run": only_run, "only_baseline": only_baseline, "p": mcnemar_p(only_run, only_baseline)}
+
+
 def rollout_tasks(method, stage: int, seeds: Sequence[int], noise: float = 0.0, steps: int = C.MAX_EPISODE_STEPS) -> TensorDictBase:
     """One batch of ``method`` (a :class:`~occrl.eval.methods.Method`) on the stage's tasks of
     ``seeds``, with the full [len(seeds), steps] rollout (privileged keys included) for analysis;
