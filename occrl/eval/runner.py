@@ -94,7 +94,13 @@ def paired_with(episodes: Sequence[dict], baseline: Sequence[dict]) -> dict:
     ran = {e["seed"] for e in episodes}
     solved = [bool(e["success"]) for e in baseline if e["seed"] in ran]
     rate = sum(solved) / len(solved) if solved else float("nan")
-    return {"tasks": tasks, "baseline_success_rate": rate, "only_run": only_run, "only_baseline": only_baseline, "p": mcnemar_p(only_run, only_baseline)}
+    return {
+        "tasks": tasks,
+        "baseline_success_rate": rate,
+        "only_run": only_run,
+        "only_baseline": only_baseline,
+        "p": mcnemar_p(only_run, only_baseline),
+    }
 
 
 def rollout_tasks(method, stage: int, seeds: Sequence[int], noise: float = 0.0, steps: int = C.MAX_EPISODE_STEPS) -> TensorDictBase:
