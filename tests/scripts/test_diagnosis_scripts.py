@@ -104,6 +104,15 @@ def test_handover_pairs_its_episodes_with_the_planners_own(tmp_path):
     assert "the planner alone on the same 2 tasks: 50.0 %; the hand-over wins 1, loses 0 (McNemar p = 1.000)" in out
 
 
+def test_detail_use_is_zero_for_a_network_just_converted(tmp_path):
+    weights = tmp_path / "fine.pt"
+    _run("scripts/finer_input.py", "--weights", "occnet", "--out", str(weights))
+    out = _run("scripts/detail_use.py", "--weights", str(weights), "--tasks", "2", "--steps", "3")
+    assert "6 images: mean |action(image) - action(even pixels)| 0.0000" in out and "(0.0 %)" in out
+    with pytest.raises(subprocess.CalledProcessError):
+        _run("scripts/detail_use.py", "--weights", "occnet", "--tasks", "1", "--steps", "1")
+
+
 def test_planner_decisions_prints_every_decision():
     out = _run("scripts/planner_decisions.py", "--method", "hybrid-2x2", "--stage", "1", "--seed", "3", "--steps", "2")
     assert out.count("step ") == 2 and out.count("    root 0: returns") == 2
