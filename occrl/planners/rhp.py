@@ -134,9 +134,9 @@ class NetworkStepper:
 
     @torch.inference_mode()
     def step(self, pixels: torch.Tensor, h: torch.Tensor, c: torch.Tensor) -> tuple[dict[str, torch.Tensor], torch.Tensor, torch.Tensor]:
-        """``pixels`` (B, 3, 64, 64) and the LSTM state before them, each (B, layers, H) as the
-        tensordict stores it -> ``{"belief", "loc", "scale"}`` (and ``"value"`` on ONNX Runtime)
-        and the state after them."""
+        """``pixels`` (B, 3, S, S) (S: the network's ``config.image_size``) and the LSTM state
+        before them, each (B, layers, H) as the tensordict stores it -> ``{"belief", "loc",
+        "scale"}`` (and ``"value"`` on ONNX Runtime) and the state after them."""
         h, c = h.transpose(0, 1).contiguous(), c.transpose(0, 1).contiguous()  # LSTM layout (layers, B, H)
         if self.session is not None:
             feed = {"pixels": pixels.numpy(), "h": h.numpy(), "c": c.numpy()}
