@@ -69,9 +69,7 @@ def main() -> None:
         f"({100 * lo:.1f}-{100 * hi:.1f}) of {len(results)} tasks; handed over in {policy.handovers}; {time.time() - t0:.0f} s"
     )
     report = {"stage": args.stage, "to": args.to, "weights": args.weights or "occnet", "handovers": policy.handovers, **summary}
-    report["episodes"] = [
-        {"seed": r.seed, "success": bool(r.success), "actions": int(r.actions), "handed_over": h} for r, h in zip(results, handed)
-    ]
+    report["episodes"] = [{**r.to_dict(), "handed_over": h} for r, h in zip(results, handed)]
     if args.baseline:
         episodes = json.loads(open(args.baseline).read())["episodes"]
         base = {e["seed"]: e["success"] for e in episodes}

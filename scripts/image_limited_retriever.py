@@ -42,20 +42,11 @@ from tqdm import tqdm
 
 from occrl.baselines import ScriptedRetriever
 from occrl.envs.episodes import run_episodes, task_scenes
-from occrl.envs.geometry import transform_polygons
+from occrl.envs.geometry import polygon_centroid, transform_polygons
 from occrl.envs.perception import detected_polygons
 from occrl.envs.render import LABELS, Canvas, render_labels_at
 from occrl.envs.robot_frame import DEFAULT_FORWARD_OFFSET, DEFAULT_SIZE, DEFAULT_WINDOW, robot_centric_points
 from occrl.eval.runner import EVAL_SEED_BASE, paired_with, summarize
-
-
-def area_centroid(polygon: np.ndarray) -> np.ndarray:
-    """The area centroid of a simple polygon (V, 2)."""
-    x, y = polygon[:, 0], polygon[:, 1]
-    x1, y1 = np.roll(x, -1), np.roll(y, -1)
-    cross = x * y1 - x1 * y
-    area = cross.sum() / 2
-    return np.array([((x + x1) * cross).sum(), ((y + y1) * cross).sum()]) / (6 * area)
 
 
 class ImageLimitedRetriever(TensorDictModuleBase):
@@ -102,7 +93,7 @@ class ImageLimitedRetriever(TensorDictModuleBase):
             for i, (points, target, cut) in reversed(list(enumerate(readings))):
                 # the finest window that shows the whole target (the first one: any part of it)
                 if target[b].any() and (i == 0 or not cut[b]):
-                    truth = area_centroid(transform_polygons(vertices[b, k, : counts[b, k]], poses[b, k]))
+                    truth = polygon_centroid(transform_polygons(vertices[b, k, : counts[b, k]], poses[b, k]))
                     self.error[b] = points[b][target[b]].mean(axis=0) - truth
                     break
             if b in self.error:
@@ -155,9 +146,7 @@ def main() -> None:
         f"({100 * lo:.1f}-{100 * hi:.1f}) of {len(results)} tasks, {summary['dropped']} dropped; {time.time() - t0:.0f} s"
     )
     report = {"stage": args.stage, "windows": windows, "canvas_mm": args.canvas_mm, **summary}
-    report["episodes"] = [
-        {"seed": r.seed, "success": bool(r.success), "actions": int(r.actions), "dropped": bool(r.dropped)} for r in results
-    ]
+    report["episodes"] = [r.to_dict() for r in results]
     if args.baseline:
         pair = paired_with(report["episodes"], json.loads(open(args.baseline).read())["episodes"])
         print(

@@ -124,9 +124,7 @@ def main() -> None:
         f"({100 * lo:.1f}-{100 * hi:.1f}) of {len(results)} tasks, {summary['dropped']} dropped; {time.time() - t0:.0f} s"
     )
     report = {"stage": args.stage, "roots": args.roots, "to_the_end": args.to_the_end, "weights": args.weights or "occnet", **summary}
-    report["episodes"] = [
-        {"seed": r.seed, "success": bool(r.success), "actions": int(r.actions), "dropped": bool(r.dropped)} for r in results
-    ]
+    report["episodes"] = [r.to_dict() for r in results]
     if args.baseline:
         pair = paired_with(report["episodes"], json.loads(open(args.baseline).read())["episodes"])
         print(
