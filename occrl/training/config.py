@@ -114,6 +114,12 @@ class TrainConfig:
     "onnxruntime" (pip install onnx onnxruntime; ~1.2x the labels per second, the same network to
     float rounding, re-exported after every update). Like the device, it changes rounding only: a
     run may resume under the other. Promotion checks always plan with torch, as evaluations do."""
+    teacher_weights: str = ""
+    """"hybrid-acting": plan with this fixed network (a weights file or a shipped name such as
+    "occnet-takeover"; it needs the heat-map head) instead of the live learner. The learner then
+    learns from the episodes of a planner that does not change, and may itself lack the heat-map
+    head (heatmap=False: the greedy / stochastic baselines' network trained on the same planner's
+    episodes as the full network). "": the live network (expert iteration)."""
     retrieval_labels: str = "planner"
     """"hybrid-acting": who labels the steps at which the learner's observation shows the target:
     the acting planner ("planner") or the privileged scripted retriever ("scripted": a direct

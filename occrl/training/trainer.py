@@ -140,8 +140,14 @@ class Trainer:
             raise ValueError(
                 f"takeover_retriever {config.takeover_retriever!r} / takeover_at {config.takeover_at!r} need retrieval_takeover > 0 (the share taken over)"
             )
-        if config.imitation_teacher in ("hybrid", "hybrid-acting") and not config.heatmap:
-            raise ValueError(f"imitation_teacher={config.imitation_teacher!r} needs the heat-map head (the hybrid planner uses it)")
+        if config.teacher_weights and config.imitation_teacher != "hybrid-acting":
+            raise ValueError(f"teacher_weights applies to imitation_teacher 'hybrid-acting', not {config.imitation_teacher!r}")
+        if config.imitation_teacher in ("hybrid", "hybrid-acting") and not config.heatmap and not config.teacher_weights:
+            raise ValueError(
+                f"imitation_teacher={config.imitation_teacher!r} needs the heat-map head (the hybrid planner uses it), "
+                "or, for 'hybrid-acting', teacher_weights naming a fixed network with one to plan with"
+            )
+        teacher_net = self._teacher_net(config.teacher_weights) if config.teacher_weights else None
         if config.imitation_teacher in ("hybrid-acting", "hierarchical", "clearing-observed") and config.collector != "single":
             raise ValueError(
                 f"imitation_teacher={config.imitation_teacher!r} needs collector 'single' (the teacher's network "
@@ -173,6 +179,11 @@ class Trainer:
         torch.manual_seed(self.seed)
         self.device = training_device(config.device)
         self.net = make_occnet(config.net_preset, heatmap=config.heatmap).eval()
+        if teacher_net is not None and teacher_net.config.image_size != self.net.config.image_size:
+            raise ValueError(
+                f"teacher_weights {config.teacher_weights!r} reads {teacher_net.config.image_size} px images, "
+                f"net_preset {config.net_preset!r} {self.net.config.image_size} px; they must see the same images"
+            )
         # collection, planner teachers and promotion checks act on the CPU: on self.acting_net,
         # the learner itself on a CPU run, else a CPU copy synchronised after every update
         self.acting_net = self.net
@@ -189,7 +200,8 @@ class Trainer:
         self.cpu_seconds: float | None = 0.0  # CPU of the run's process tree (tree_cpu_seconds); None: not measured from the start
         # the hybrid-acting teacher plans on the live network; planners are reseeded every iteration
         if config.imitation_teacher == "hybrid-acting":
-            self.expert = HybridPlanner(self.acting_net, m=4, h=4, seed=self.seed, inference=config.teacher_inference, batch_worlds=True)
+            planning_net = self.acting_net if teacher_net is None else teacher_net
+            self.expert = HybridPlanner(planning_net, m=4, h=4, seed=self.seed, inference=config.teacher_inference, batch_worlds=True)
             if config.retrieval_takeover > 0:  # a retriever acts in a share of the retrievals
                 taker = self._teacher(config.takeover_retriever)
                 self.expert = RetrievalTakeover(self.expert, taker, config.retrieval_takeover, seed=self.seed, at=config.takeover_at)
@@ -297,6 +309,23 @@ class Trainer:
         return self.acting_net.policy
 
     # ------------------------------------------------------------------ one iteration
+    @staticmethod
+    def _teacher_net(value: str):
+        """The fixed network a "hybrid-acting" teacher plans with (``teacher_weights``): a weights
+        file or a shipped network's name; it must have the heat-map head."""
+        from occrl.pretrained import weights_file
+
+        path = weights_file(value)
+        if not Path(path).is_file():
+            from occrl.pretrained import available
+
+            raise ValueError(f"teacher_weights {value!r} is neither a weights file nor a shipped network ({available()})")
+        net = load_weights(path)
+        if not net.config.heatmap:
+            raise ValueError(f"teacher_weights {value!r} has no heat-map head; the hybrid planner needs one")
+        logger.info("the hybrid-acting teacher plans with the fixed network %s (sha256 %s)", path, file_sha256(path)[:12])
+        return net
+
     def _teacher(self, name: str):
         """The teacher or taker-over that is not the hybrid planner: the hierarchical planner (with
         the teacher's settings), the clearing retriever (privileged, or deciding from observations),
