@@ -60,7 +60,10 @@ def read_occrl_file(path: str | Path, expected_format: str) -> dict:
 
 
 def check_architecture(net: OccNet, config: dict, path) -> None:
-    """``CheckpointError`` naming the differences when ``config`` is not ``net``'s architecture."""
+    """``CheckpointError`` naming the differences when ``config`` is not ``net``'s architecture.
+    Settings added to :class:`OccNetConfig` after the file was written take their defaults (the
+    architecture the file was saved from), as :func:`load_weights` builds it."""
+    config = {**OccNetConfig().to_dict(), **config}
     if config != net.config.to_dict():
         diff = {k: (config.get(k), v) for k, v in net.config.to_dict().items() if config.get(k) != v}
         raise CheckpointError(f"{path} was saved from another architecture; differences (file, this net): {diff}")

@@ -45,6 +45,20 @@ def test_init_weights_start_a_new_run_and_are_recorded(tmp_path, start_weights):
         Trainer(get_train_config("tiny", heatmap=False), tmp_path / "other", seed=0, progress=False, init_weights=path)
 
 
+def test_init_weights_written_before_a_setting_existed_start_a_run(tmp_path):
+    """Files written before a network setting was added (the shipped networks predate
+    ``detail_channels``) hold the architecture of its default and start a run."""
+    from occrl.pretrained import pretrained_path
+    from occrl.modules.weights import read_occrl_file
+
+    for name, heatmap in (("occnet-noheatmap", False), ("occnet-takeover", True)):
+        path = pretrained_path(name)
+        assert "detail_channels" not in read_occrl_file(path, "occrl-weights-v1")["net_config"]  # the case under test
+        tr = Trainer(get_train_config("tiny", heatmap=heatmap), tmp_path / name, seed=0, progress=False, tensorboard=False, init_weights=path)
+        assert _equal(torch.load(path, weights_only=True)["model"], _state(tr.net))
+        tr.close()
+
+
 def test_critic_warmup_trains_the_value_head_only(tmp_path, start_weights):
     path, _ = start_weights
     cfg = get_train_config("tiny", critic_warmup_iters=1, batch_norm_frames=0)
