@@ -193,3 +193,36 @@ def test_the_observed_clearing_teacher_acts_and_labels_from_the_first_sight_on(t
     assert bool(((weight[:, 1:] >= weight[:, :-1]) | starts[:, 1:]).all())  # once it acts, to the episode end
     with pytest.raises(ValueError, match="collector 'single'"):
         Trainer(get_train_config("tiny", imitation_iters=5, imitation_teacher="clearing-observed", collector="multi"), tmp_path / "b")
+
+
+def test_hybrid_acting_teacher_with_fixed_weights_teaches_a_network_without_heatmap(tmp_path):
+    """teacher_weights: the hybrid planner acts with a fixed network (here a saved random one), so
+    a learner without heat-map head learns from its episodes; the teacher's weights never move."""
+    from occrl.modules.weights import save_weights
+
+    torch.manual_seed(5)
+    teacher = make_occnet("paper").eval()
+    path = tmp_path / "teacher.pt"
+    save_weights(path, teacher)
+    cfg = get_train_config(
+        "tiny", imitation_iters=5, imitation_teacher="hybrid-acting", collector="single", heatmap=False, teacher_weights=str(path)
+    )
+    tr = Trainer(cfg, tmp_path / "run", seed=0, progress=False, tensorboard=False)
+    assert tr.expert.net is not tr.net and not tr.net.config.heatmap
+    before = {k: v.clone() for k, v in tr.net.state_dict().items()}
+    data = tr._collect()
+    decided = torch.stack([torch.as_tensor(d.action, dtype=torch.float32) for d in tr.expert.decisions[-data.numel() :]])
+    assert torch.allclose(data["action"].transpose(0, 1).reshape(-1, 4), decided, atol=1e-6)  # the planner acts
+    tr.train(iterations=1)
+    tr.close()
+    assert all(torch.equal(v, teacher.state_dict()[k]) for k, v in tr.expert.net.state_dict().items())  # fixed
+    assert any(not torch.equal(v, before[k]) for k, v in tr.net.state_dict().items())  # the learner learned
+    for settings, match in (
+        (dict(imitation_teacher="hybrid-acting", heatmap=False), "or, for 'hybrid-acting', teacher_weights"),
+        (dict(imitation_teacher="scripted", teacher_weights=str(path)), "teacher_weights applies to"),
+        (dict(imitation_teacher="hybrid-acting", teacher_weights=str(tmp_path / "none.pt")), "neither a weights file"),
+        (dict(imitation_teacher="hybrid-acting", teacher_weights="occnet-noheatmap"), "has no heat-map head"),
+    ):
+        with pytest.raises(ValueError, match=match):
+            Trainer(get_train_config("tiny", collector="single", **settings), tmp_path / "bad", seed=0, progress=False)
+    assert not (tmp_path / "bad" / "checkpoint.pt").exists()

@@ -54,7 +54,9 @@ def test_init_weights_written_before_a_setting_existed_start_a_run(tmp_path):
     for name, heatmap in (("occnet-noheatmap", False), ("occnet-takeover", True)):
         path = pretrained_path(name)
         assert "detail_channels" not in read_occrl_file(path, "occrl-weights-v1")["net_config"]  # the case under test
-        tr = Trainer(get_train_config("tiny", heatmap=heatmap), tmp_path / name, seed=0, progress=False, tensorboard=False, init_weights=path)
+        tr = Trainer(
+            get_train_config("tiny", heatmap=heatmap), tmp_path / name, seed=0, progress=False, tensorboard=False, init_weights=path
+        )
         assert _equal(torch.load(path, weights_only=True)["model"], _state(tr.net))
         tr.close()
 
