@@ -5,7 +5,7 @@ Usage:
     python benchmarks/hybrid_teacher_throughput.py [--rounds 3] [--steps 10] [--num-envs 8]
 
 Builds the trainer of the hybrid-acting run (`cpu-curriculum`, ``imitation_teacher="hybrid-acting"``,
-collector "single", stage 2, from ``occnet``) twice, once per ``teacher_inference``, and times
+collector "single", stage 2, from ``--weights``, default ``occnet``) twice, once per ``teacher_inference``, and times
 ``--rounds`` collections of ``--num-envs`` x ``--steps`` frames with each, alternating so that
 both see the same machine load (its speed varies 2-3x between runs; compare the ratio). The same
 iteration seed is collected by both, so they act in the same tasks. One thread (OMP_NUM_THREADS=1).
@@ -32,6 +32,9 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--steps", type=int, default=10, help="steps per world and collection")
     parser.add_argument("--num-envs", type=int, default=8)
+    parser.add_argument(
+        "--weights", default="occnet", help="a weights file or a shipped network's name (occnet-warmstart: the default before 0.3.0)"
+    )
     args = parser.parse_args()
     torch.set_num_threads(1)
     trainers = {}
@@ -48,7 +51,7 @@ def main() -> None:
                 teacher_inference=backend,
             )
             trainers[backend] = Trainer(
-                cfg, f"{tmp}/{backend}", seed=0, progress=False, tensorboard=False, init_weights=weights_file("occnet")
+                cfg, f"{tmp}/{backend}", seed=0, progress=False, tensorboard=False, init_weights=weights_file(args.weights)
             )
         seconds: dict[str, list[float]] = {b: [] for b in trainers}
         success: dict[str, list[float]] = {b: [] for b in trainers}

@@ -28,7 +28,8 @@ import torch
 from tensordict import TensorDict
 
 from occrl.planners.rhp import NetworkStepper, StepGraph
-from occrl.pretrained import load_pretrained
+from occrl.modules.weights import load_weights
+from occrl.pretrained import weights_file
 
 BATCHES = (1, 4, 12)
 
@@ -57,9 +58,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--calls", type=int, default=300)
     parser.add_argument("--threads", type=int, default=1)
+    parser.add_argument(
+        "--weights", default="occnet", help="a weights file or a shipped network's name (occnet-warmstart: the default before 0.3.0)"
+    )
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
-    net = load_pretrained("occnet")
+    net = load_weights(weights_file(args.weights))
     stepper = NetworkStepper(net)
     head = net.actor.module[0]
     module = PolicyStep(StepGraph(copy.deepcopy(net))).eval()  # a copy: tracing and compiling leave the planner's net alone

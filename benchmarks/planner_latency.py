@@ -1,12 +1,13 @@
 """Hybrid-planner decision time on one core, and batched RHP against the sequential reference.
 
 Usage:
-    python benchmarks/planner_latency.py [--decisions 30] [--weights PATH] [--physics-change]
+    python benchmarks/planner_latency.py [--decisions 30] [--weights PATH_OR_NAME] [--physics-change]
                                          [--worlds-together] [--inference onnxruntime]
 
 Decisions are taken on observations from stage-2 episodes (the scripted retriever drives, so the
-states are realistic; the target is often hidden, giving up to 3 heat-map roots). Uses the
-shipped network when present, else ``--weights``, else an untrained paper net (says which).
+states are realistic; the target is often hidden, giving up to 3 heat-map roots). Uses
+``--weights`` (a file or a shipped name), else the shipped default network when present, else an
+untrained paper net (says which).
 ``--worlds-together`` only compares batches of 8 worlds planned together
 (``HybridPlanner.decide_many``) with the same worlds decided one at a time.
 ``--physics-change`` only prints 4x4 decision times with the default physics and with occrl
@@ -34,13 +35,13 @@ from occrl.planners import HybridPlanner
 
 
 def load_net(weights: str | None):
-    from occrl.pretrained import available, load_pretrained
+    from occrl.pretrained import available, load_pretrained, network_name, weights_file
     from occrl.modules.weights import load_weights
 
     if weights:
-        return load_weights(weights), weights
+        return load_weights(weights_file(weights)), network_name(weights)
     if "occnet" in available():
-        return load_pretrained("occnet"), "shipped occnet"
+        return load_pretrained("occnet"), f"shipped occnet ({network_name('occnet')})"
     torch.manual_seed(0)
     return make_occnet("paper").eval(), "untrained paper net"
 

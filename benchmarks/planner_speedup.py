@@ -2,7 +2,7 @@
 
 Usage:
     git worktree add /tmp/occrl-ref <commit>        # the code to compare against
-    python benchmarks/planner_speedup.py --reference /tmp/occrl-ref [--decisions 24] [--rounds 2] [--inference onnxruntime]
+    python benchmarks/planner_speedup.py --reference /tmp/occrl-ref [--decisions 24] [--rounds 2] [--inference onnxruntime] [--weights occnet]
     python benchmarks/planner_speedup.py --reference /tmp/occrl-ref --episodes 8 [--rounds 2]
 
 Both sides take the same decisions (observations along scripted stage-2 episodes, one planner per
@@ -37,11 +37,11 @@ torch.set_num_threads(1)
 from occrl.baselines import ScriptedRetriever
 from occrl.envs import Scene, make_env
 from occrl.planners import HybridPlanner
-from occrl.pretrained import load_pretrained
+from occrl.training import load_weights
 
 decisions = int(sys.argv[1])
 options = {"inference": sys.argv[3]} if sys.argv[3] != "torch" else {}
-net = load_pretrained("occnet")
+net = load_weights(sys.argv[4])
 obs, seed = [], 0
 while len(obs) < decisions:
     env = make_env(batch_size=1, scenes=[Scene.sample(2, seed=20_000 + seed)], heatmap_target=False).append_transform(net.make_primer())
@@ -73,7 +73,7 @@ from occrl.eval.methods import make_method
 
 tasks = int(sys.argv[1])
 options = {"inference": sys.argv[2]} if sys.argv[2] != "torch" else {}
-method = make_method("hybrid-4x4", **options)
+method = make_method("hybrid-4x4", weights=sys.argv[3], **options)
 seeds = [10_000_000 + i for i in range(tasks)]
 t = time.perf_counter()
 # batches of 16 worlds, as occrl eval runs them, one planner for all
@@ -84,9 +84,11 @@ print(json.dumps({"wall": wall, "decisions": decisions, "episodes": [[r.seed, bo
 """
 
 
-def measure(root: Path, decisions: int, inference: str = "torch", episodes: int = 0) -> dict:
+def measure(root: Path, weights: str, decisions: int, inference: str = "torch", episodes: int = 0) -> dict:
     env = dict(os.environ, PYTHONPATH=str(root), OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
-    args = [EPISODES_CHILD, str(episodes), inference] if episodes else [CHILD, str(decisions), json.dumps(SIZES), inference]
+    args = (
+        [EPISODES_CHILD, str(episodes), inference, weights] if episodes else [CHILD, str(decisions), json.dumps(SIZES), inference, weights]
+    )
     proc = subprocess.run(
         [sys.executable, "-c", *args],
         cwd=root,
@@ -112,7 +114,19 @@ def main() -> None:
         default=0,
         help="instead: the wall time of this many held-out stage-2 hybrid 4x4 episodes (occrl eval's way) per side",
     )
+    parser.add_argument(
+        "--weights",
+        default="occnet",
+        help="the network both sides plan with: a weights file or a name shipped in this checkout (default occnet; "
+        "occnet-warmstart for the figures measured before occrl 0.3.0, when it was the default)",
+    )
     args = parser.parse_args()
+    from occrl.pretrained import network_name, weights_file
+
+    weights = str(Path(weights_file(args.weights)).resolve())
+    if not Path(weights).is_file():
+        raise SystemExit(f"--weights {args.weights!r} is neither a weights file nor a shipped network")
+    print(f"network: {network_name(args.weights)} ({weights})", flush=True)
     here = Path(__file__).resolve().parent.parent
     ref = Path(args.reference).resolve()
     if not (ref / "occrl" / "__init__.py").is_file():
@@ -120,7 +134,7 @@ def main() -> None:
     runs: dict[str, list[dict]] = {"this": [], "reference": []}
     for r in range(args.rounds):
         for side, root in (("reference", ref), ("this", here)) if r % 2 == 0 else (("this", here), ("reference", ref)):
-            runs[side].append(measure(root, args.decisions, args.inference if side == "this" else "torch", args.episodes))
+            runs[side].append(measure(root, weights, args.decisions, args.inference if side == "this" else "torch", args.episodes))
             print(f"round {r + 1}/{args.rounds}: {side} done", flush=True)
     if args.episodes:
         wall = {side: np.array([run["wall"] for run in runs[side]]) for side in runs}

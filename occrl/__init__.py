@@ -1,6 +1,6 @@
 """occrl: occlusion-aware search for object retrieval in clutter, as TorchRL components."""
 
-__version__ = "0.2.0"
+__version__ = "0.3.0"
 
 
 def load_pretrained(name: str = "occnet"):

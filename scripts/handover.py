@@ -36,7 +36,7 @@ from occrl.baselines.handover import SearchThenRetrieve
 from occrl.baselines.observed_clearing import ObservedClearingRetriever
 from occrl.envs.episodes import run_episodes, task_scenes
 from occrl.eval.runner import EVAL_SEED_BASE, paired_with, summarize
-from occrl.pretrained import weights_file
+from occrl.pretrained import network_name, weights_file
 
 
 def main() -> None:
@@ -68,7 +68,13 @@ def main() -> None:
         f"hybrid 4x4 -> {args.to} at the first detection, stage {args.stage}: {100 * summary['success_rate']:.1f} % "
         f"({100 * lo:.1f}-{100 * hi:.1f}) of {len(results)} tasks; handed over in {policy.handovers}; {time.time() - t0:.0f} s"
     )
-    report = {"stage": args.stage, "to": args.to, "weights": args.weights or "occnet", "handovers": policy.handovers, **summary}
+    report = {
+        "stage": args.stage,
+        "to": args.to,
+        "weights": network_name(args.weights or "occnet"),
+        "handovers": policy.handovers,
+        **summary,
+    }
     report["episodes"] = [{**r.to_dict(), "handed_over": h} for r, h in zip(results, handed)]
     if args.baseline:
         episodes = json.loads(open(args.baseline).read())["episodes"]

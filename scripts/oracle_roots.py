@@ -45,7 +45,7 @@ from occrl.eval.runner import EVAL_SEED_BASE, paired_with, summarize
 from occrl.envs import world_constants as C
 from occrl.planners import HybridPlanner, RecreatedState, Root, recreate, with_target
 from occrl.planners.rhp import NetworkStepper
-from occrl.pretrained import weights_file
+from occrl.pretrained import network_name, weights_file
 
 
 class ZeroValueStepper(NetworkStepper):
@@ -123,7 +123,13 @@ def main() -> None:
         f"{name}, stage {args.stage}: {100 * summary['success_rate']:.1f} % "
         f"({100 * lo:.1f}-{100 * hi:.1f}) of {len(results)} tasks, {summary['dropped']} dropped; {time.time() - t0:.0f} s"
     )
-    report = {"stage": args.stage, "roots": args.roots, "to_the_end": args.to_the_end, "weights": args.weights or "occnet", **summary}
+    report = {
+        "stage": args.stage,
+        "roots": args.roots,
+        "to_the_end": args.to_the_end,
+        "weights": network_name(args.weights or "occnet"),
+        **summary,
+    }
     report["episodes"] = [r.to_dict() for r in results]
     if args.baseline:
         pair = paired_with(report["episodes"], json.loads(open(args.baseline).read())["episodes"])

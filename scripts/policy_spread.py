@@ -20,7 +20,7 @@ from torchrl.modules import set_recurrent_mode
 
 from occrl.eval.methods import make_method
 from occrl.eval.runner import rollout_tasks
-from occrl.pretrained import weights_file
+from occrl.pretrained import network_name, weights_file
 
 SPREAD_SEED_BASE = 50_000_000
 
@@ -35,7 +35,7 @@ def main() -> None:
     method = make_method("stochastic-gen", args.weights)
     net = method.policy.net  # the network the sampled policy runs
     head = net.actor.module[0]  # writes "loc" and "scale" from "belief"
-    print(f"network {args.weights or 'occnet'}: policy standard deviation (forward, lateral, rotation, gripper)")
+    print(f"network {network_name(args.weights or 'occnet')}: policy standard deviation (forward, lateral, rotation, gripper)")
     for stage in (1, 2, 3):
         seeds = list(range(SPREAD_SEED_BASE, SPREAD_SEED_BASE + args.tasks))
         td = rollout_tasks(method, stage, seeds)

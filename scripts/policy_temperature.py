@@ -22,7 +22,7 @@ from occrl.baselines import NetPolicy
 from occrl.envs.episodes import run_episodes, task_scenes
 from occrl.eval.methods import make_method
 from occrl.eval.runner import EVAL_SEED_BASE, mcnemar_p, wilson_interval
-from occrl.pretrained import weights_file
+from occrl.pretrained import network_name, weights_file
 
 
 def main() -> None:
@@ -51,7 +51,7 @@ def main() -> None:
         solved[k] = [r.success for r in results]
         episodes[str(k)] = [r.to_dict() for r in results]
     print(
-        f"network {args.weights or 'occnet'}, stage {args.stage}, {args.tasks} held-out tasks: own sampled policy, standard deviation x K"
+        f"network {network_name(args.weights or 'occnet')}, stage {args.stage}, {args.tasks} held-out tasks: own sampled policy, standard deviation x K"
     )
     print("| K | success | 95 % interval | only K / only K = 1 | McNemar p |")
     print("| --- | --- | --- | --- | --- |")

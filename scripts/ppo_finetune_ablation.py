@@ -1,6 +1,6 @@
 """PPO fine-tuning of the shipped warm-start net: which setting makes the policy degrade?
 
-Runs short ``cpu-finetune`` trainings from ``occnet`` (seed 0), each with one change, and prints
+Runs short ``cpu-finetune`` trainings from ``occnet-warmstart`` (seed 0), each with one change, and prints
 the learner's success on its own stage-1 training episodes: iterations 1-10 train only the value
 head (the policy is the warm-start one), PPO starts at iteration 11.
 
@@ -51,7 +51,7 @@ def run(name: str, out: Path, iterations: int) -> None:
         folder,
         seed=0,
         progress=True,
-        init_weights=pretrained_path("occnet"),
+        init_weights=pretrained_path("occnet-warmstart"),
         tensorboard=False,
     )
     try:

@@ -28,7 +28,7 @@ from torchrl.modules import set_recurrent_mode
 from occrl.envs import world_constants as C
 from occrl.eval.methods import make_method
 from occrl.eval.runner import rollout_tasks
-from occrl.pretrained import load_pretrained, weights_file
+from occrl.pretrained import load_pretrained, network_name, weights_file
 from occrl.training import load_weights, save_weights
 
 FIT_SEED_BASE = 40_000_000
@@ -132,7 +132,9 @@ def main() -> None:
                 optimizer.step()
         report(head, test, targets(head, test), f"refit, round {r + 1}")
     net.critic.load_state_dict(head.state_dict())
-    save_weights(args.out, net, meta={"note": f"value head refitted by scripts/value_refit.py from {args.weights or 'occnet'}"})
+    save_weights(
+        args.out, net, meta={"note": f"value head refitted by scripts/value_refit.py from {network_name(args.weights or 'occnet')}"}
+    )
     print(f"wrote {args.out}")
 
 

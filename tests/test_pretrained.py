@@ -6,25 +6,40 @@ import pytest
 import torch
 
 from occrl.cli import main
-from occrl.pretrained import PRETRAINED_FILES, available, load_pretrained, model_card, pretrained_path
+from occrl.pretrained import DEFAULT_NETWORKS, PRETRAINED_FILES, available, load_pretrained, model_card, pretrained_path
+
+# the training facts a card records; a file's own record (its "meta", written at export) keeps them
+# while the card's names (summary, init_weights) follow renames (occnet -> occnet-warmstart in 0.3.0)
+FACTS = ("train_preset", "seed", "iterations", "frames", "cpu_hours", "wall_hours", "stage_reached", "phase")
 
 
 @pytest.mark.parametrize("name", sorted(PRETRAINED_FILES))
 def test_every_shipped_network_loads_and_has_its_card(name):
     assert name in available()
     raw = torch.load(pretrained_path(name), map_location="cpu", weights_only=True)  # no pickled code
-    assert raw["meta"] == model_card(name)
     card = model_card(name)
-    for fact in ("train_preset", "seed", "iterations", "frames", "cpu_hours", "wall_hours", "stage_reached", "summary"):
+    for fact in (*FACTS, "summary"):
         assert fact in card, f"{name}: model card lacks {fact}"
+    assert {k: raw["meta"][k] for k in FACTS} == {k: card[k] for k in FACTS}
+    assert raw["meta"].get("settings_beyond_preset") == card.get("settings_beyond_preset")
+    assert card["summary"].startswith(f"{name}: ")
     net = load_pretrained(name)
-    assert (net.heatmap is None) == (name == "occnet-noheatmap")
+    assert (net.heatmap is None) == ("noheatmap" in name)
 
 
-def test_occnet_ei_is_occnet_trained_further_and_the_cli_takes_its_name(tmp_path):
+def test_default_names_stand_for_shipped_networks():
+    assert DEFAULT_NETWORKS == {"occnet": "occnet-takeover", "occnet-noheatmap": "occnet-noheatmap-takeover"}
+    for default, net in DEFAULT_NETWORKS.items():
+        assert default in available() and pretrained_path(default) == pretrained_path(net)
+        assert model_card(default) == model_card(net)
+    with pytest.raises(ValueError, match="unknown pretrained network 'occnet-v9'; known: .*'occnet-warmstart'"):
+        pretrained_path("occnet-v9")
+
+
+def test_occnet_ei_is_occnet_warmstart_trained_further_and_the_cli_takes_its_name(tmp_path):
     card = model_card("occnet-ei")
-    assert card["init_weights"] == "occnet.pt" and card["stage_reached"] == 2
-    ei, base = load_pretrained("occnet-ei").state_dict(), load_pretrained("occnet").state_dict()
+    assert card["init_weights"] == "occnet-warmstart.pt" and card["stage_reached"] == 2
+    ei, base = load_pretrained("occnet-ei").state_dict(), load_pretrained("occnet-warmstart").state_dict()
     assert ei.keys() == base.keys() and not all(torch.equal(ei[k], base[k]) for k in base)
     out = tmp_path / "r.json"
     assert (
@@ -53,7 +68,7 @@ def test_occnet_takeover_is_the_takeover_runs_iteration_75_and_its_card_names_th
     from occrl.modules.weights import load_weights
 
     card = model_card("occnet-takeover")
-    assert card["init_weights"] == "occnet.pt" and card["iterations"] == 75 and card["frames"] == 30_000
+    assert card["init_weights"] == "occnet-warmstart.pt" and card["iterations"] == 75 and card["frames"] == 30_000
     recipe = card["settings_beyond_preset"]
     assert recipe["imitation_teacher"] == "hybrid-acting" and recipe["retrieval_takeover"] == 0.5
     shipped = load_pretrained("occnet-takeover").state_dict()

@@ -114,7 +114,7 @@ def make_parser() -> argparse.ArgumentParser:
     e.add_argument(
         "--weights",
         default=None,
-        help="network weights file, or a shipped network's name (occnet-ei, occnet-takeover), instead of the method's default",
+        help="network weights file, or a shipped network's name (occnet-warmstart, occnet-ei, ...), instead of the method's default (occnet / occnet-noheatmap)",
     )
     e.add_argument(
         "--rollout-min-scale",
@@ -141,7 +141,11 @@ def make_parser() -> argparse.ArgumentParser:
 
     x = sub.add_parser("export", help="ship a training run's weights in the package (occrl.load_pretrained)")
     x.add_argument("--run-dir", required=True)
-    x.add_argument("--name", required=True, help="occnet, occnet-noheatmap, occnet-ei or occnet-takeover")
+    x.add_argument(
+        "--name",
+        required=True,
+        help="the shipped network's own name (occrl.pretrained.PRETRAINED_FILES, e.g. occnet-takeover); the default names occnet and occnet-noheatmap stand for one of them (DEFAULT_NETWORKS)",
+    )
     x.add_argument("--preset", required=True, help="the training preset the run used")
     x.add_argument("--seed", type=SEED, default=0)
     x.add_argument(

@@ -170,7 +170,7 @@ def _stop_ray_if_used(args: argparse.Namespace) -> None:
 
 
 def run_eval(args: argparse.Namespace) -> int:
-    from occrl.eval.methods import METHODS, PLANNERS, PRIVILEGED
+    from occrl.eval.methods import METHODS, PLANNERS, PRIVILEGED, method_network
     from occrl.eval.runner import run_tasks, summarize
 
     if args.inference != "torch" and (args.sweep or not (args.method or "").startswith("hybrid")):
@@ -272,7 +272,7 @@ def run_eval(args: argparse.Namespace) -> int:
         _stop_ray_if_used(args)
     summary = {
         "method": args.method,
-        "network": args.weights or network_of(args.method),
+        "network": method_network(args.method, args.weights)[0],  # a default name resolved to the network it stands for
         "stage": stage,
         "objects": args.objects,
         "noise": args.noise,
@@ -330,11 +330,9 @@ def _summary_table(summary: dict, fmt: str) -> str:
 
 def network_of(method: str) -> str | None:
     """The shipped network a method uses (None: it uses none)."""
-    from occrl.eval.methods import PRIVILEGED
+    from occrl.eval.methods import default_network
 
-    if method in PRIVILEGED or method == "hierarchical":
-        return None
-    return "occnet-noheatmap" if method in ("greedy", "stochastic") else "occnet"
+    return default_network(method)
 
 
 def run_export(args: argparse.Namespace) -> int:
@@ -343,13 +341,17 @@ def run_export(args: argparse.Namespace) -> int:
 
     import torch
 
-    from occrl.pretrained import PRETRAINED_DIR, PRETRAINED_FILES
+    from occrl.pretrained import DEFAULT_NETWORKS, PRETRAINED_DIR, PRETRAINED_FILES
     from occrl.modules.weights import load_weights, save_weights
     from occrl.training.checkpoint import load_checkpoint
     from occrl.training.plots import read_metrics
 
     if args.name not in PRETRAINED_FILES:
-        print(f"name must be one of {sorted(PRETRAINED_FILES)}", file=sys.stderr)
+        print(
+            f"name must be a shipped network's own name, one of {sorted(PRETRAINED_FILES)} (the default names "
+            f"{sorted(DEFAULT_NETWORKS)} stand for one of them: occrl.pretrained.DEFAULT_NETWORKS), got {args.name!r}",
+            file=sys.stderr,
+        )
         return 2
     run = Path(args.run_dir)
     weights_path = run / (args.weights or "weights.pt")

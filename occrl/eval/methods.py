@@ -10,7 +10,7 @@ from torchrl.envs.utils import ExplorationType
 
 from occrl.envs.robot_frame import DEFAULT_SIZE
 
-__all__ = ["Method", "make_method", "METHODS", "PRIVILEGED"]
+__all__ = ["Method", "make_method", "default_network", "method_network", "METHODS", "PRIVILEGED"]
 
 METHODS = [
     "hybrid-2x2",
@@ -60,6 +60,42 @@ def _net(name: str, weights: str | Path | None):
     return load_weights(weights) if weights else load_pretrained(name)
 
 
+def default_network(name: str) -> str | None:
+    """The shipped network a method decides with unless ``weights`` says otherwise (None: none).
+
+    Examples:
+        >>> from occrl.eval.methods import default_network
+        >>> default_network("hybrid-4x4"), default_network("greedy"), default_network("hierarchical")
+        ('occnet', 'occnet-noheatmap', None)
+    """
+    if name in _HYBRID or name == "stochastic-gen":
+        return "occnet"
+    return "occnet-noheatmap" if name in ("greedy", "stochastic") else None
+
+
+def method_network(name: str, weights: str | Path | None = None) -> tuple[str | None, str | None]:
+    """What a result records as a method's network: its name (a shipped network's own name, a
+    default such as "occnet" resolved to the network it stands for in this version, or the weights
+    file as given) and the SHA-256 of its weights file; ``(None, None)`` for a method without one."""
+    import hashlib
+
+    from occrl.pretrained import network_name, weights_file
+
+    default = default_network(name)
+    if default is None:
+        return None, None
+    path = weights_file(weights or default)
+    return network_name(str(weights or default)), hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def _network_record(default: str, weights: str | Path | None) -> str:
+    """What a result records as its network: a shipped network's own name (a default name such
+    as "occnet" resolved to the network it stands for in this version) or the weights file."""
+    from occrl.pretrained import network_name
+
+    return network_name(str(weights or default))
+
+
 def make_method(
     name: str, weights: str | Path | None = None, seed: int = 0, rollout_min_scale: float = 0.0, inference: str = "torch"
 ) -> Method:
@@ -74,7 +110,7 @@ def make_method(
         >>> from occrl.eval.methods import make_method
         >>> m = make_method("hybrid-2x2")  # loads the shipped net
         >>> type(m.policy).__name__, (m.policy.m, m.policy.h), len(m.primers), m.network
-        ('HybridPlanner', (2, 2), 1, 'occnet')
+        ('HybridPlanner', (2, 2), 1, 'occnet-takeover')
         >>> make_method("random")  # doctest: +ELLIPSIS
         Traceback (most recent call last):
             ...
@@ -93,7 +129,7 @@ def make_method(
             name,
             HybridPlanner(net, m=m, h=h, limited=limited, seed=seed, rollout_min_scale=rollout_min_scale, inference=inference),
             [net.make_primer()],
-            network=str(weights or "occnet"),
+            network=_network_record("occnet", weights),
             image_size=net.config.image_size,
         )
     if name == "hierarchical":
@@ -119,7 +155,7 @@ def make_method(
             policy,
             [net.make_primer()],
             ExplorationType.DETERMINISTIC,
-            network=str(weights or net_name),
+            network=_network_record(net_name, weights),
             image_size=net.config.image_size,
         )
     raise ValueError(f"unknown method {name!r}; available: {METHODS}")

@@ -106,7 +106,7 @@ def run_sweep(
         >>> sorted(os.listdir(out)), os.listdir(out / "points")
         (['points', 'results.csv', 'results.json', 'sweep.png'], ['scripted__clutter__1.json'])
     """
-    from occrl.eval.methods import PLANNERS
+    from occrl.eval.methods import PLANNERS, method_network
 
     if tasks < 1 or (chunk is not None and chunk < 1):
         raise ValueError(f"tasks and chunk must be >= 1, got tasks={tasks}, chunk={chunk}")
@@ -120,6 +120,7 @@ def run_sweep(
     to_run = sum(len(all_seeds - set(_episodes_by_seed(_cached_point(_point_path(out, m, sw, v))))) for sw, v, m in points)
     # one bar (and ETA) for the whole sweep; the points advance it task by task
     bar = tqdm(total=to_run, desc=f"sweep ({len(points)} points)", unit="task", disable=not progress)
+    networks = {m: method_network(m, weights) for m in methods}  # (name, SHA-256 of the weights) per method
     for upto in list(range(chunk, tasks, chunk)) + [tasks]:
         seeds = list(range(first_seed, first_seed + upto))
         for sweep, value, method in points:
@@ -134,6 +135,7 @@ def run_sweep(
             cached_noise = _point_noise(cached) if cached is not None else noise
             if cached_noise != noise:
                 raise ValueError(f"{path} holds tasks at noise {cached_noise:g}, not {noise:g}: use another --out folder for another noise")
+            _check_point_network(path, cached, *networks[method])
             missing = [s for s in seeds if s not in done]
             if not missing:
                 continue
@@ -159,6 +161,8 @@ def run_sweep(
                 "sweep": sweep,
                 "value": value,
                 "noise": noise,
+                "network": networks[method][0],
+                "network_sha256": networks[method][1],
                 **summarize(results),
                 "episodes": [r.to_dict() for r in results],
             }
@@ -170,6 +174,23 @@ def run_sweep(
     if films:
         sweep_films(out, "hybrid-4x4" if "hybrid-4x4" in methods else methods[0], weights=weights)
     return out
+
+
+def _check_point_network(path: Path, point: dict | None, name: str | None, sha256: str | None) -> None:
+    """``ValueError`` when a cached point holds episodes of another network than the one its
+    method now decides with (a sweep extended with other weights, or after the default network
+    changed); points written before sweeps recorded their network are taken as they are, with a
+    warning."""
+    if point is None or sha256 is None:
+        return
+    if "network_sha256" not in point:
+        logger.warning("%s was written before sweeps recorded their network: extending it with %s unchecked", path, name)
+        return
+    if point["network_sha256"] != sha256:
+        raise ValueError(
+            f"{path} holds episodes of the network {point.get('network')!r} (sha256 {point['network_sha256'][:12]}), not of "
+            f"{name!r} (sha256 {sha256[:12]}): use another --out folder for another network"
+        )
 
 
 def _point_noise(point: dict) -> float:

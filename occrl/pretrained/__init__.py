@@ -1,14 +1,22 @@
 """Pretrained networks shipped inside the package (no download at run time).
 
-``occrl.load_pretrained("occnet")`` is the full three-headed net (used by the hybrid planner and
-the Stochastic-gen baseline); ``"occnet-noheatmap"`` the net without heat-map head (Greedy and
-Stochastic baselines); ``"occnet-ei"`` is ``occnet`` after expert iteration on stage 2: its own
-sampled policy is better on every stage, the hybrid planner on it is no better than on ``occnet``
-(``occrl eval --method stochastic-gen --weights occnet-ei``); ``"occnet-takeover"`` is ``occnet``
-after 75 iterations of the hybrid planner acting with the scripted retriever taking over half of
-the retrievals (``retrieval_takeover=0.5``): the best network so far for the hybrid planner and its
-own policy on stages 2 and 3 (``occrl eval --method hybrid-4x4 --weights occnet-takeover``), not yet
-the default. ``model_card`` says how each was trained; docs/experiments.md has the figures.
+``occrl.load_pretrained("occnet")`` is the default full three-headed net (the hybrid planner and
+the Stochastic-gen baseline), ``"occnet-noheatmap"`` the default net without heat-map head (Greedy
+and Stochastic baselines). Each default name stands for one shipped network
+(:data:`DEFAULT_NETWORKS`); every network keeps its own name:
+
+- ``"occnet-takeover"`` (``occnet`` since occrl 0.3.0): ``occnet-warmstart`` after 75 iterations of
+  the hybrid planner acting on stage 2 with the scripted retriever taking over half of the
+  retrievals (``retrieval_takeover=0.5``); the best network so far for the hybrid planner and its
+  own policy on stages 2 and 3;
+- ``"occnet-noheatmap-takeover"`` (``occnet-noheatmap`` since 0.3.0): ``occnet-noheatmap-warmstart``
+  trained by the same recipe minus the heat-map: the same planner (on ``occnet-takeover``, fixed:
+  ``teacher_weights``) and retriever act, the net learns from their episodes;
+- ``"occnet-warmstart"``, ``"occnet-noheatmap-warmstart"`` (``occnet`` / ``occnet-noheatmap`` up
+  to 0.2.x): DAgger on the privileged scripted retriever, stage 1;
+- ``"occnet-ei"``: ``occnet-warmstart`` after expert iteration on stage 2.
+
+``model_card`` says how each was trained; docs/experiments.md has the figures.
 """
 
 from __future__ import annotations
@@ -18,26 +26,53 @@ from pathlib import Path
 
 from occrl.modules.weights import load_weights
 
-__all__ = ["load_pretrained", "available", "model_card", "pretrained_path", "weights_file", "PRETRAINED_DIR", "PRETRAINED_FILES"]
+__all__ = [
+    "load_pretrained",
+    "available",
+    "model_card",
+    "network_name",
+    "pretrained_path",
+    "weights_file",
+    "PRETRAINED_DIR",
+    "PRETRAINED_FILES",
+    "DEFAULT_NETWORKS",
+]
 
 PRETRAINED_DIR = Path(__file__).resolve().parent  # where the shipped weights and model_cards.json live
-PRETRAINED_FILES = {  # shipped name -> weights file in PRETRAINED_DIR
-    "occnet": "occnet.pt",
-    "occnet-noheatmap": "occnet-noheatmap.pt",
-    "occnet-ei": "occnet-ei.pt",
+PRETRAINED_FILES = {  # shipped network -> weights file in PRETRAINED_DIR
     "occnet-takeover": "occnet-takeover.pt",
+    "occnet-noheatmap-takeover": "occnet-noheatmap-takeover.pt",
+    "occnet-warmstart": "occnet-warmstart.pt",
+    "occnet-noheatmap-warmstart": "occnet-noheatmap-warmstart.pt",
+    "occnet-ei": "occnet-ei.pt",
+}
+DEFAULT_NETWORKS = {  # default name -> the shipped network it stands for (the planners' and baselines' defaults)
+    "occnet": "occnet-takeover",
+    "occnet-noheatmap": "occnet-noheatmap-takeover",
 }
 
 
+def network_name(name: str) -> str:
+    """The shipped network a name stands for (a default name resolved, other names as they are).
+
+    Examples:
+        >>> from occrl.pretrained import network_name
+        >>> network_name("occnet"), network_name("occnet-ei")
+        ('occnet-takeover', 'occnet-ei')
+    """
+    return DEFAULT_NETWORKS.get(name, name)
+
+
 def available() -> list[str]:
-    """Names of the shipped networks present in this installation.
+    """Names of the shipped networks present in this installation (default names included).
 
     Examples:
         >>> from occrl.pretrained import available
         >>> "occnet" in available()
         True
     """
-    return sorted(name for name, f in PRETRAINED_FILES.items() if (PRETRAINED_DIR / f).is_file())
+    present = {name for name, f in PRETRAINED_FILES.items() if (PRETRAINED_DIR / f).is_file()}
+    return sorted(present | {name for name, net in DEFAULT_NETWORKS.items() if net in present})
 
 
 def model_card(name: str) -> dict:
@@ -53,7 +88,7 @@ def model_card(name: str) -> dict:
     """
     path = PRETRAINED_DIR / "model_cards.json"
     cards = json.loads(path.read_text()) if path.is_file() else {}
-    return cards.get(name, {})
+    return cards.get(network_name(name), {})
 
 
 def load_pretrained(name: str = "occnet"):
@@ -80,15 +115,15 @@ def pretrained_path(name: str) -> Path:
     Examples:
         >>> from occrl.pretrained import pretrained_path
         >>> pretrained_path("occnet").name
-        'occnet.pt'
+        'occnet-takeover.pt'
         >>> pretrained_path("occnet-v9")
         Traceback (most recent call last):
             ...
-        ValueError: unknown pretrained network 'occnet-v9'; known: ['occnet', 'occnet-ei', 'occnet-noheatmap', 'occnet-takeover']
+        ValueError: unknown pretrained network 'occnet-v9'; known: ['occnet', 'occnet-ei', 'occnet-noheatmap', 'occnet-noheatmap-takeover', 'occnet-noheatmap-warmstart', 'occnet-takeover', 'occnet-warmstart']
     """
-    if name not in PRETRAINED_FILES:
-        raise ValueError(f"unknown pretrained network {name!r}; known: {sorted(PRETRAINED_FILES)}")
-    path = PRETRAINED_DIR / PRETRAINED_FILES[name]
+    if network_name(name) not in PRETRAINED_FILES:
+        raise ValueError(f"unknown pretrained network {name!r}; known: {sorted(PRETRAINED_FILES | DEFAULT_NETWORKS)}")
+    path = PRETRAINED_DIR / PRETRAINED_FILES[network_name(name)]
     if not path.is_file():
         raise FileNotFoundError(f"{path} is missing: this installation has no weights for {name!r} (shipped: {available()})")
     return path

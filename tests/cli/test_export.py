@@ -21,7 +21,7 @@ def test_export_the_warm_start_weights_with_their_own_card(tmp_path):
                 "--run-dir",
                 str(run),
                 "--name",
-                "occnet",
+                "occnet-warmstart",
                 "--preset",
                 "tiny",
                 "--weights",
@@ -32,14 +32,16 @@ def test_export_the_warm_start_weights_with_their_own_card(tmp_path):
         )
         == 0
     )
-    card = json.loads((dest / "model_cards.json").read_text())["occnet"]
+    card = json.loads((dest / "model_cards.json").read_text())["occnet-warmstart"]
     assert card["iterations"] == 2 and card["phase"] == "imitation" and card["weights_file"] == "weights_warmstart.pt"
     rows = [json.loads(line) for line in (run / "metrics.jsonl").read_text().splitlines()]
     assert card["cpu_hours"] == round(rows[1]["cpu_hours"], 2)  # the run's measured CPU time at the exported iteration
-    shipped, warm = load_weights(dest / "occnet.pt").state_dict(), load_weights(run / "weights_warmstart.pt").state_dict()
+    shipped, warm = load_weights(dest / "occnet-warmstart.pt").state_dict(), load_weights(run / "weights_warmstart.pt").state_dict()
     assert all(torch.equal(shipped[k], warm[k]) for k in warm)
-    assert main(["export", "--run-dir", str(run), "--name", "occnet", "--preset", "tiny", "--dest", str(dest)]) == 0
-    assert json.loads((dest / "model_cards.json").read_text())["occnet"]["iterations"] == 3
+    assert main(["export", "--run-dir", str(run), "--name", "occnet-warmstart", "--preset", "tiny", "--dest", str(dest)]) == 0
+    assert json.loads((dest / "model_cards.json").read_text())["occnet-warmstart"]["iterations"] == 3
+    # a default name stands for another network: export under the network's own name
+    assert main(["export", "--run-dir", str(run), "--name", "occnet", "--preset", "tiny", "--dest", str(dest)]) == 2
     assert main(["export", "--run-dir", str(run), "--name", "mystery", "--preset", "tiny", "--dest", str(dest)]) == 2
 
 

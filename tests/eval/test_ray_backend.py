@@ -10,7 +10,7 @@ from occrl.eval.runner import EVAL_SEED_BASE, run_tasks
 
 pytestmark = pytest.mark.skipif(not ray_available(), reason="ray is not installed (pip install 'occrl[ray]')")
 
-SHIPPED = Path(occrl.__file__).parent / "pretrained" / "occnet.pt"
+SHIPPED = Path(occrl.__file__).parent / "pretrained" / "occnet-takeover.pt"
 
 
 def _outcomes(results):

@@ -118,3 +118,31 @@ def test_the_command_line_runs_the_clutter_sweep_alone_at_the_noise_it_is_given(
     assert main(["eval", "--sweep", "--methods", "scripted", "--noise", "0.15", "--out", str(tmp_path / "out"), "--no-progress"]) == 0
     assert main(["eval", "--sweep", "--methods", "scripted", "--out", str(tmp_path / "out"), "--no-progress"]) == 0
     assert [(c["sweeps"], c["clutter_noise"]) for c in calls] == [(("clutter",), 0.15), (("clutter", "noise"), 0.0)]
+
+
+def test_a_point_records_its_network_and_is_never_extended_with_another(tmp_path):
+    """A sweep point records the network its method decided with (its own name and the SHA-256 of
+    the weights); extending it with other weights, or after the default network changed, is refused."""
+    from occrl.eval.methods import method_network
+    from occrl.pretrained import pretrained_path
+
+    values = {"clutter": [1.0]}
+    out = run_sweep(["greedy"], tmp_path, tasks=1, first_seed=900, sweeps=("clutter",), values=values, films=False, progress=False)
+    point = json.loads((out / "points" / "greedy__clutter__1.json").read_text())
+    assert (point["network"], point["network_sha256"]) == method_network("greedy") and point["network"] == "occnet-noheatmap-takeover"
+    warm = str(pretrained_path("occnet-noheatmap-warmstart"))
+    with pytest.raises(ValueError, match="holds episodes of the network 'occnet-noheatmap-takeover'.*use another --out folder"):
+        run_sweep(["greedy"], tmp_path, tasks=2, first_seed=900, sweeps=("clutter",), values=values, weights=warm, progress=False)
+    assert len(json.loads((out / "points" / "greedy__clutter__1.json").read_text())["episodes"]) == 1  # left as it was
+    # the same network (its weights file, as occrl eval passes it) extends the point
+    run_sweep(
+        ["greedy"],
+        tmp_path,
+        tasks=2,
+        first_seed=900,
+        sweeps=("clutter",),
+        values=values,
+        weights=str(pretrained_path("occnet-noheatmap-takeover")),
+        progress=False,
+    )
+    assert len(json.loads((out / "points" / "greedy__clutter__1.json").read_text())["episodes"]) == 2
