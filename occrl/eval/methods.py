@@ -74,18 +74,30 @@ def default_network(name: str) -> str | None:
 
 
 def method_network(name: str, weights: str | Path | None = None) -> tuple[str | None, str | None]:
-    """What a result records as a method's network: its name (a shipped network's own name, a
-    default such as "occnet" resolved to the network it stands for in this version, or the weights
-    file as given) and the SHA-256 of its weights file; ``(None, None)`` for a method without one."""
+    """What a result records as a method's network: its name (a shipped network's own name, also
+    for the path of a shipped file; a default such as "occnet" resolved to the network it stands
+    for in this version; else the weights file as given) and the SHA-256 of its weights file;
+    ``(None, None)`` for a method without one.
+
+    Examples:
+        >>> from occrl.eval.methods import method_network
+        >>> from occrl.pretrained import pretrained_path
+        >>> method_network("hybrid-4x4")[0], method_network("greedy", str(pretrained_path("occnet-ei")))[0]
+        ('occnet-takeover', 'occnet-ei')
+        >>> method_network("scripted")
+        (None, None)
+    """
     import hashlib
 
-    from occrl.pretrained import network_name, weights_file
+    from occrl.pretrained import PRETRAINED_DIR, PRETRAINED_FILES, network_name, weights_file
 
     default = default_network(name)
     if default is None:
         return None, None
-    path = weights_file(weights or default)
-    return network_name(str(weights or default)), hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    path = Path(weights_file(weights or default))
+    shipped = [net for net, f in PRETRAINED_FILES.items() if PRETRAINED_DIR / f == path.resolve()]
+    record = shipped[0] if shipped else network_name(str(weights or default))  # a shipped file by its name
+    return record, hashlib.sha256(path.read_bytes()).hexdigest()
 
 
 def _network_record(default: str, weights: str | Path | None) -> str:
