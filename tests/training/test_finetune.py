@@ -46,18 +46,24 @@ def test_init_weights_start_a_new_run_and_are_recorded(tmp_path, start_weights):
 
 
 def test_init_weights_written_before_a_setting_existed_start_a_run(tmp_path):
-    """Files written before a network setting was added (the shipped networks predate
-    ``detail_channels``) hold the architecture of its default and start a run."""
-    from occrl.pretrained import pretrained_path
-    from occrl.modules.weights import read_occrl_file
-
-    for name, heatmap in (("occnet-noheatmap", False), ("occnet-takeover", True)):
-        path = pretrained_path(name)
-        assert "detail_channels" not in read_occrl_file(path, "occrl-weights-v1")["net_config"]  # the case under test
+    """Files written before a network setting was added (e.g. occnet-warmstart and occnet-takeover
+    predate ``detail_channels``) hold the architecture of its default and start a run."""
+    for heatmap in (False, True):
+        torch.manual_seed(7)
+        net, path = make_occnet("paper", heatmap=heatmap), tmp_path / f"old_{heatmap}.pt"
+        save_weights(path, net)
+        obj = torch.load(path, weights_only=True)
+        del obj["net_config"]["detail_channels"]  # as written before the setting existed
+        torch.save(obj, path)
         tr = Trainer(
-            get_train_config("tiny", heatmap=heatmap), tmp_path / name, seed=0, progress=False, tensorboard=False, init_weights=path
+            get_train_config("tiny", heatmap=heatmap),
+            tmp_path / f"run_{heatmap}",
+            seed=0,
+            progress=False,
+            tensorboard=False,
+            init_weights=path,
         )
-        assert _equal(torch.load(path, weights_only=True)["model"], _state(tr.net))
+        assert _equal(_state(net), _state(tr.net))
         tr.close()
 
 
