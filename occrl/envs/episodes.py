@@ -160,7 +160,9 @@ def run_episodes(
     """Run ``policy`` once on each scene (batches of ``batch_size`` worlds stepped together).
 
     Success requires retrieval in under 50 actions and under 2 minutes, with nothing dropped.
-    Per-task time is the batch's wall time divided among its tasks.
+    The batch stops when each of its worlds has ended its episode (a world that ended is not
+    stepped again, and the policy is not asked again for a batch of one); per-task time is the
+    batch's wall time, planning and execution, divided among its tasks.
 
     Examples:
         >>> from occrl.baselines import ScriptedRetriever
@@ -177,7 +179,7 @@ def run_episodes(
         env = seeded_task_env(policy, chunk, chunk_seeds, noise, primers, heatmap_target, world, size)
         t = time.time()
         with torch.no_grad(), set_exploration_type(exploration):
-            td = env.rollout(C.MAX_EPISODE_STEPS, policy, break_when_any_done=False)
+            td = env.rollout(C.MAX_EPISODE_STEPS, policy, break_when_any_done=False, break_when_all_done=True)
         per_task = (time.time() - t) / len(chunk)
         done = td.get(("next", "done")).squeeze(-1).numpy()
         success = td.get(("next", "success")).squeeze(-1).numpy()

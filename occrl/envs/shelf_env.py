@@ -69,7 +69,9 @@ class ShelfEnv(EnvBase):
     Episode Termination:
         Terminated when the target is held and its centroid is 5 cm past the front edge
         (``success``) or when any other object leaves the shelf (``dropped``); truncated after
-        ``max_steps`` (50) actions.
+        ``max_steps`` (50) actions. A ``"_step"`` mask in the input (TorchRL's
+        ``rollout(..., break_when_all_done=True)`` writes it) steps only the worlds it marks;
+        the others stay as they are, their step counters included.
 
     Args:
         batch_size: number of independent worlds.
@@ -241,10 +243,13 @@ class ShelfEnv(EnvBase):
                 f"{actions[bad].tolist()}; allowed: finite numbers, clipped to [-1, 1]. No world was stepped."
             )
         B = self.num_worlds
-        reward = np.empty(B, dtype=np.float32)
+        partial = tensordict.get("_step", None)
+        stepped = np.ones(B, dtype=bool) if partial is None else partial.reshape(B).cpu().numpy().astype(bool)
+        reward = np.zeros(B, dtype=np.float32)
         success = np.zeros(B, dtype=bool)
         dropped = np.zeros(B, dtype=bool)
-        for i, world in enumerate(self.worlds):
+        for i in np.flatnonzero(stepped):
+            world = self.worlds[i]
             outcome = world.step(actions[i])
             reward[i] = outcome.reward
             success[i] = outcome.retrieved
@@ -258,7 +263,7 @@ class ShelfEnv(EnvBase):
                     1000 * world.penetration,
                     world.crossed_wall,
                 )
-        self._steps += 1
+        self._steps += stepped
         terminated = success | dropped
         truncated = (self._steps >= self.max_steps) & ~terminated
         out = self._observe(success=success, dropped=dropped)

@@ -37,6 +37,11 @@ SWEEPS = {
     "noise": [0.0, 0.05, 0.1, 0.15, 0.2, 0.25],
 }
 SCENE_STAGE = 2  # uniform target placement
+# How a point's times were taken. Points without the key come from before occrl 0.3.0, whose
+# evaluation ran every task for 50 actions (starting it again after its episode ended): their
+# success, drops and actions are exact, their time is that of 50 actions.
+EPISODE_TIMING = "episode"
+LEGACY_TIMING = "50 actions"
 
 
 def noise_sweep_objects(seed: int) -> int:
@@ -163,6 +168,8 @@ def run_sweep(
                 "noise": noise,
                 "network": networks[method][0],
                 "network_sha256": networks[method][1],
+                # a point extended from a legacy one keeps the legacy mark: some of its times are of 50 actions
+                **({"timing": EPISODE_TIMING} if cached is None or cached.get("timing") == EPISODE_TIMING else {}),
                 **summarize(results),
                 "episodes": [r.to_dict() for r in results],
             }
@@ -237,7 +244,7 @@ def summarize_sweep(out: str | Path) -> list[dict]:
     for p in _points(out):
         rows.append(
             {k: p[k] for k in ("method", "sweep", "value", "tasks", "successes", "success_rate", "dropped", "mean_actions", "mean_seconds")}
-            | {"noise": _point_noise(p)}
+            | {"noise": _point_noise(p), "timing": p.get("timing", LEGACY_TIMING)}
             | {"ci95_low": p["success_ci95"][0], "ci95_high": p["success_ci95"][1]}
         )
     rows.sort(key=lambda r: (r["sweep"], r["method"], r["value"]))
@@ -288,6 +295,7 @@ def sweep_tables(rows: list[dict]) -> str:
 
 def plot_sweep(out: str | Path) -> Path:
     """Fig. 5 layout: columns success rate, time per task, actions per task; rows clutter, noise.
+    Points from before occrl 0.3.0 timed 50 actions per task, and the time axis says so.
 
     Examples:
         >>> import json, tempfile
@@ -321,7 +329,11 @@ def plot_sweep(out: str | Path) -> Path:
             axes[i, 2].plot(x, [r["mean_actions"] for r in pts], marker="o", label=method)
         clutter_noise = sorted({r["noise"] for r in rows if r["sweep"] == "clutter"} - {0.0})
         xlabel = "noise level" if sweep == "noise" else "number of objects" + "".join(f" (noise {n:g})" for n in clutter_noise)
-        for ax, ylabel in zip(axes[i], ("success rate", "time per task (s)", "actions per task")):
+        timings = {r["timing"] for r in rows if r["sweep"] == sweep}
+        time_label = {frozenset({EPISODE_TIMING}): "time per task (s)", frozenset({LEGACY_TIMING}): "time per 50 actions (s)"}.get(
+            frozenset(timings), "time per task (s; some of 50 actions)"
+        )
+        for ax, ylabel in zip(axes[i], ("success rate", time_label, "actions per task")):
             ax.set_xlabel(xlabel)
             ax.set_ylabel(ylabel)
             ax.grid(alpha=0.3)
@@ -375,7 +387,7 @@ def sweep_films(out: str | Path, method: str, solved: int = 3, failed: int = 1, 
         if decisions is not None:
             decisions.clear()
         with torch.no_grad(), set_exploration_type(m.exploration):
-            td = env.rollout(C.MAX_EPISODE_STEPS, m.policy, break_when_any_done=False)[0]
+            td = env.rollout(C.MAX_EPISODE_STEPS, m.policy, break_when_any_done=False, break_when_all_done=True)[0]
         end = episode_end(td.get(("next", "done")).squeeze(-1).numpy())
         if bool(td.get(("next", "success"))[end]) != bool(e["success"]) or end + 1 != e["actions"]:
             raise RuntimeError(f"replay of task {seed} ({method}, {int(point['value'])} objects) differs from the sweep's episode")

@@ -7,6 +7,7 @@ from torchrl.envs.utils import check_env_specs
 from occrl.baselines import ScriptedRetriever
 from occrl.envs import Scene, ShelfEnv, make_env
 from occrl.envs import world_constants as C
+from occrl.envs.episodes import run_episodes, task_scenes
 from tests.helpers import scene
 
 
@@ -81,6 +82,32 @@ def test_partial_reset_only_resets_the_masked_worlds():
     env.reset(TensorDict({"_reset": torch.tensor([[True], [False]])}, batch_size=[2]))
     assert env.worlds[1].scene is old_scene and np.array_equal(env.worlds[1].gripper_pose(), kept)
     assert env.worlds[0].scene is not old_first
+
+
+def test_partial_step_only_steps_the_masked_worlds():
+    env = ShelfEnv(batch_size=2, stage=2, seed=3)
+    td = env.reset()
+    kept = env.worlds[1].gripper_pose().copy()
+    td["action"] = torch.tensor([[1.0, 0, 0, -1]] * 2)
+    td["_step"] = torch.tensor([[True], [False]])
+    env.step(td)
+    assert np.array_equal(env.worlds[1].gripper_pose(), kept)
+    assert env.worlds[0].gripper_pose()[1] > -0.1  # the stepped world moved in
+    assert list(env._steps) == [1, 0]
+
+
+def test_episodes_stop_when_every_world_has_ended():
+    # a batch of one is not stepped, nor its policy asked, after its episode ends
+    calls = []
+    policy = ScriptedRetriever()
+    policy.register_forward_hook(lambda *a: calls.append(1))
+    [result] = run_episodes(policy, [scene([(0.0, 0.15, 0.0, True)])], seeds=[0])
+    assert result.success and len(calls) == result.actions < 20
+    # in a batch, a world that ended keeps its outcome while the others go on
+    seeds = [0, 1, 2]
+    results = run_episodes(ScriptedRetriever(), task_scenes(1, seeds), seeds, batch_size=3)
+    alone = [run_episodes(ScriptedRetriever(), task_scenes(1, [s]), [s])[0] for s in seeds]
+    assert [(r.success, r.actions) for r in results] == [(r.success, r.actions) for r in alone]
 
 
 def test_scenes_are_used_in_turn():

@@ -146,3 +146,20 @@ def test_a_point_records_its_network_and_is_never_extended_with_another(tmp_path
         progress=False,
     )
     assert len(json.loads((out / "points" / "greedy__clutter__1.json").read_text())["episodes"]) == 2
+
+
+def test_points_say_how_their_times_were_taken(tmp_path):
+    """New points time each task's own episode; a point from before 0.3.0 (no mark: 50 actions per
+    task) keeps its legacy mark when extended, and the figure's time axis says which it shows."""
+    values = {"clutter": [1.0]}
+    out = run_sweep(["scripted"], tmp_path, tasks=1, first_seed=700, sweeps=("clutter",), values=values, progress=False)
+    path = out / "points" / "scripted__clutter__1.json"
+    assert json.loads(path.read_text())["timing"] == "episode"
+    assert json.loads((out / "results.json").read_text())[0]["timing"] == "episode"
+    legacy = json.loads(path.read_text())
+    del legacy["timing"]
+    path.write_text(json.dumps(legacy))
+    run_sweep(["scripted"], tmp_path, tasks=2, first_seed=700, sweeps=("clutter",), values=values, progress=False)
+    point = json.loads(path.read_text())
+    assert len(point["episodes"]) == 2 and "timing" not in point
+    assert json.loads((out / "results.json").read_text())[0]["timing"] == "50 actions"

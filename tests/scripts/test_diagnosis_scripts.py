@@ -202,3 +202,28 @@ def test_results_table_compares_two_runs_task_by_task(tmp_path):
     out = _run("scripts/results_table.py", "--compare", str(a), str(b))
     assert "1 of 4 episodes the same" in out
     assert "4 tasks in both: solved 3 / 2; only by the first 2, only by the second 1; exact McNemar p = 1.000" in out
+
+
+def test_timing_table_splits_each_task_into_planning_and_execution(tmp_path):
+    out = tmp_path / "timing.json"
+    text = _run(
+        "scripts/timing_table.py",
+        "--methods",
+        "scripted,hybrid-2x2",
+        "--objects",
+        "1",
+        "--tasks",
+        "1",
+        "--sweep",
+        "results/sweep-v3",
+        "--out",
+        str(out),
+    )
+    result = json.loads(out.read_text())
+    for name in ("scripted", "hybrid-2x2"):
+        [row] = result["methods"][name]
+        assert row["seed"] == 10_000_000 and row["objects"] == 1 and 1 <= row["actions"] <= 50
+        assert row["planning_seconds"] > 0 and row["execution_seconds"] > 0
+    assert result["differ_from_sweep"]["hybrid-2x2"] == 0  # the sweep has this episode; the same seed replays it
+    assert "| hybrid-2x2 |" in text and "planning share" in text
+    assert _run("scripts/timing_table.py", "--table", str(out)) == text.split("episodes that differ")[0]

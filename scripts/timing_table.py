@@ -1,0 +1,183 @@
+"""Planning and execution time per task for each method, as the papers report it (Fig. 5's time row).
+
+Every method runs one task at a time (one world, as one robot would) on the clutter sweep's
+tasks (stage-2 scene sampling, noise 0, seeds from 10,000,000) at the given object counts, and
+each task's wall time is split into *planning* (the method's calls: network, roll-outs, OMPL) and
+*execution* (the env's steps: physics, perception, rendering of the next observation). A task
+ends with its episode (retrieved, dropped, or 50 actions).
+
+Run it with the machine to itself: times are absolute seconds of this machine (the table says
+which CPU), unlike the benchmarks' ratios. With ``--sweep DIR`` every episode is checked against
+that sweep's episode of the same method and seed (same outcome, same number of actions).
+
+Usage:
+    python scripts/timing_table.py --objects 1,4,7,10 --tasks 25 --sweep results/sweep-v3 --out results/timing/timing.json
+    python scripts/timing_table.py --table results/timing/timing.json   # the markdown table again
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+from torchrl.envs.utils import set_exploration_type
+from tqdm import tqdm
+
+from occrl.envs import world_constants as C
+from occrl.envs.episodes import episode_end, seeded_task_env, task_scenes
+from occrl.eval.methods import METHODS, make_method, method_network
+from occrl.eval.runner import EVAL_SEED_BASE
+from occrl.eval.sweep import SCENE_STAGE
+
+STUDY_METHODS = ["hybrid-2x2", "hybrid-4x4", "hybrid-6x6", "hybrid-lim-4x4", "greedy", "stochastic", "stochastic-gen", "hierarchical"]
+
+
+class CallTimer:
+    """Adds up the wall time spent inside a module's calls (forward hooks)."""
+
+    def __init__(self, module: torch.nn.Module):
+        self.seconds = 0.0
+        self.calls = 0
+        self._start = 0.0
+        module.register_forward_pre_hook(self._before)
+        module.register_forward_hook(self._after)
+
+    def _before(self, *args) -> None:
+        self._start = time.perf_counter()
+
+    def _after(self, *args) -> None:
+        self.seconds += time.perf_counter() - self._start
+        self.calls += 1
+
+
+def time_method(name: str, objects: list[int], tasks: int, bar: tqdm) -> list[dict]:
+    """One row per task: object count, seed, outcome, actions, planning and execution seconds."""
+    method = make_method(name)
+    timer = CallTimer(method.policy)
+    rows = []
+    for count in objects:
+        for seed in range(EVAL_SEED_BASE, EVAL_SEED_BASE + tasks):
+            env = seeded_task_env(
+                method.policy, task_scenes(SCENE_STAGE, [seed], count), [seed], 0.0, method.primers, size=method.image_size
+            )
+            timer.seconds, timer.calls = 0.0, 0
+            start = time.perf_counter()
+            with torch.no_grad(), set_exploration_type(method.exploration):
+                td = env.rollout(C.MAX_EPISODE_STEPS, method.policy, break_when_any_done=False, break_when_all_done=True)[0]
+            total = time.perf_counter() - start
+            end = episode_end(td.get(("next", "done")).squeeze(-1).numpy())
+            if timer.calls != end + 1:
+                raise RuntimeError(f"{name} was asked {timer.calls} times for an episode of {end + 1} actions (task {seed})")
+            rows.append(
+                {
+                    "objects": count,
+                    "seed": seed,
+                    "success": bool(td.get(("next", "success"))[end]),
+                    "actions": end + 1,
+                    "planning_seconds": timer.seconds,
+                    "execution_seconds": total - timer.seconds,
+                }
+            )
+            bar.update()
+    return rows
+
+
+def check_against_sweep(name: str, rows: list[dict], sweep: Path) -> int:
+    """Number of episodes that differ from the sweep's (outcome or action count); missing points are skipped."""
+    differ = 0
+    for count in sorted({r["objects"] for r in rows}):
+        path = sweep / "points" / f"{name}__clutter__{count:g}.json"
+        if not path.exists():
+            continue
+        ref = {e["seed"]: e for e in json.loads(path.read_text())["episodes"]}
+        for r in rows:
+            e = ref.get(r["seed"]) if r["objects"] == count else None
+            if e is not None and (bool(e["success"]) != r["success"] or int(e["actions"]) != r["actions"]):
+                differ += 1
+    return differ
+
+
+def cpu_name() -> str:
+    """The CPU's model name (Linux), else what ``platform`` knows."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def table(result: dict) -> str:
+    objects = result["objects"]
+    lines = [
+        f"seconds per task, planning + execution, by the number of objects on the shelf (mean over {result['tasks']} tasks each; one task at a time on one core; {result['cpu']})",
+        "",
+        "| method | " + " | ".join(str(n) for n in objects) + " | planning share | ms per action |",
+        "| --- | " + " | ".join("---" for _ in objects) + " | --- | --- |",
+    ]
+    for name, rows in result["methods"].items():
+        cells = []
+        for n in objects:
+            rs = [r for r in rows if r["objects"] == n]
+            plan = np.mean([r["planning_seconds"] for r in rs])
+            execute = np.mean([r["execution_seconds"] for r in rs])
+            cells.append(f"{plan + execute:.2f} ({plan:.2f} + {execute:.2f})")
+        plan_all = sum(r["planning_seconds"] for r in rows)
+        total_all = plan_all + sum(r["execution_seconds"] for r in rows)
+        per_action = 1000 * total_all / sum(r["actions"] for r in rows)
+        lines.append(f"| {name} | " + " | ".join(cells) + f" | {100 * plan_all / total_all:.0f} % | {per_action:.0f} |")
+    return "\n".join(lines)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--methods", default=",".join(STUDY_METHODS), help="comma-separated method names")
+    parser.add_argument("--objects", default="1,4,7,10", help="comma-separated object counts (clutter sweep points)")
+    parser.add_argument("--tasks", type=int, default=25, help="tasks per object count (seeds from 10,000,000)")
+    parser.add_argument("--sweep", type=Path, default=None, help="a sweep folder to check every episode against")
+    parser.add_argument("--out", type=Path, default=None, help="JSON file for every task's times")
+    parser.add_argument("--table", type=Path, default=None, help="print the table of an earlier --out file and stop")
+    args = parser.parse_args()
+    if args.table is not None:
+        print(table(json.loads(args.table.read_text())))
+        return
+    methods = [m.strip() for m in args.methods.split(",") if m.strip()]
+    unknown = [m for m in methods if m not in METHODS]
+    if unknown:
+        parser.error(f"unknown method(s) {unknown}; allowed: {', '.join(METHODS)}")
+    objects = [int(n) for n in args.objects.split(",")]
+    if args.tasks < 1 or not all(1 <= n <= 10 for n in objects):
+        parser.error(f"--tasks must be >= 1 and --objects within 1-10, got {args.tasks} and {objects}")
+    torch.set_num_threads(1)
+    result = {
+        "command": "python scripts/timing_table.py "
+        + " ".join(f"--{k} {v}" for k, v in (("methods", args.methods), ("objects", args.objects), ("tasks", args.tasks))),
+        "cpu": f"{cpu_name()}, torch threads 1",
+        "objects": objects,
+        "tasks": args.tasks,
+        "networks": {m: method_network(m, None)[0] for m in methods},
+        "methods": {},
+        "differ_from_sweep": {},
+    }
+    bar = tqdm(total=len(methods) * len(objects) * args.tasks, desc="timing", unit="task")
+    for name in methods:
+        result["methods"][name] = time_method(name, objects, args.tasks, bar)
+        if args.sweep is not None:
+            result["differ_from_sweep"][name] = check_against_sweep(name, result["methods"][name], args.sweep)
+    bar.close()
+    if args.out is not None:
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        args.out.write_text(json.dumps(result, indent=1))
+    print(table(result))
+    if args.sweep is not None:
+        print(f"episodes that differ from {args.sweep}: {result['differ_from_sweep']}")
+
+
+if __name__ == "__main__":
+    main()
