@@ -27,7 +27,16 @@ def _claims(tmp_path, rows):
     path.write_text(json.dumps(rows))
     out = subprocess.run([sys.executable, str(SCRIPT), str(path), "--tables"], capture_output=True, text=True, check=True).stdout
     assert "success (%) against objects" in out and "| hybrid-4x4 | " in out
-    return {line.split(" | ")[0].lstrip("| "): line.split(" | ")[-1].rstrip(" |") for line in out.splitlines() if line.startswith("| ")}
+    rows = [line.strip("| ").split(" | ") for line in out.splitlines() if line.startswith("| ") and " | " in line]
+    return {cells[0]: cells[2] for cells in rows if len(cells) == 4}
+
+
+def _spread(tmp_path, rows) -> dict:
+    path = tmp_path / "results.json"
+    path.write_text(json.dumps(rows))
+    out = subprocess.run([sys.executable, str(SCRIPT), str(path)], capture_output=True, text=True, check=True).stdout
+    rows = [line.strip("| ").split(" | ") for line in out.splitlines() if line.startswith("| ")]
+    return {cells[0]: cells[3] for cells in rows if len(cells) == 4}
 
 
 def test_a_sweep_shaped_like_the_papers_agrees_with_every_claim(tmp_path):
@@ -63,3 +72,32 @@ def test_a_baseline_clearly_above_the_hybrid_is_a_disagreement(tmp_path):
     ]
     verdicts = _claims(tmp_path, rows)
     assert verdicts["hybrid (4x4) beats every baseline"].startswith("disagrees (2 pairs clearly lower)")
+
+
+def test_methods_on_the_same_tasks_are_compared_by_mcnemar_on_the_sweeps_episodes(tmp_path):
+    # 100 tasks at one point: hybrid-4x4 solves 80, hybrid-lim-4x4 solves the same 80 but 10 of
+    # them swapped for 10 others (10 / 10 exclusive: p = 1); hybrid-2x2 solves 60 of 4x4's 80 (20 / 0)
+    (tmp_path / "points").mkdir()
+    solved = {
+        "hybrid-4x4": set(range(80)),
+        "hybrid-lim-4x4": set(range(10, 90)),
+        "hybrid-2x2": set(range(60)),
+        "hybrid-6x6": set(range(80)),
+    }
+    rows = []
+    for method, wins in solved.items():
+        episodes = [{"seed": s, "success": s in wins} for s in range(100)]
+        point = {"method": method, "sweep": "clutter", "value": 1.0, "episodes": episodes}
+        (tmp_path / "points" / f"{method}__clutter__1.json").write_text(json.dumps(point))
+        rows.append(_row(method, "clutter", 1.0, len(wins) / 100) | {"tasks": 100, "successes": len(wins)})
+    spread = _spread(tmp_path, rows)
+    assert (
+        "within the spread (hybrid-4x4 / hybrid-lim-4x4 alone solved 10 / 10 tasks, McNemar p = 1)"
+        == spread["hybrid-lim is slightly below hybrid"]
+    )
+    assert spread["larger m x h helps"].startswith(
+        "4x4 against 2x2: beyond the spread (hybrid-4x4 / hybrid-2x2 alone solved 20 / 0 tasks, McNemar p = 1.9e-06)"
+    )
+    # without the episodes the pooled intervals decide: 80 % and 60 % of 100 tasks separate
+    (tmp_path / "points" / "hybrid-2x2__clutter__1.json").unlink()
+    assert _spread(tmp_path, rows)["larger m x h helps"].startswith("4x4 against 2x2: beyond the spread (pooled 95 % intervals")
