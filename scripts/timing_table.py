@@ -4,7 +4,9 @@ Every method runs one task at a time (one world, as one robot would) on the clut
 tasks (stage-2 scene sampling, noise 0, seeds from 10,000,000) at the given object counts, and
 each task's wall time is split into *planning* (the method's calls: network, roll-outs, OMPL) and
 *execution* (the env's steps: physics, perception, rendering of the next observation). A task
-ends with its episode (retrieved, dropped, or 50 actions).
+ends with its episode (retrieved, dropped, or 50 actions). For the hybrid planners the table also
+gives the share of decisions that weighed more than one root (the target undetected, several
+heat-map peaks): only those differ between hybrid and hybrid-lim, which keeps the likeliest root.
 
 Run it with the machine to itself: times are absolute seconds of this machine (the table says
 which CPU), unlike the benchmarks' ratios. With ``--sweep DIR`` every episode is checked against
@@ -66,6 +68,9 @@ def time_method(name: str, objects: list[int], tasks: int, bar: tqdm) -> list[di
                 method.policy, task_scenes(SCENE_STAGE, [seed], count), [seed], 0.0, method.primers, size=method.image_size
             )
             timer.seconds, timer.calls = 0.0, 0
+            decisions = getattr(method.policy, "decisions", None)  # the hybrid planners' record of each decision
+            if decisions is not None:
+                decisions.clear()
             start = time.perf_counter()
             with torch.no_grad(), set_exploration_type(method.exploration):
                 td = env.rollout(C.MAX_EPISODE_STEPS, method.policy, break_when_any_done=False, break_when_all_done=True)[0]
@@ -81,6 +86,8 @@ def time_method(name: str, objects: list[int], tasks: int, bar: tqdm) -> list[di
                     "actions": end + 1,
                     "planning_seconds": timer.seconds,
                     "execution_seconds": total - timer.seconds,
+                    # roots weighed per decision (hybrid planners): one whenever the target is detected
+                    **({"roots": [len(d.roots) for d in decisions]} if decisions is not None else {}),
                 }
             )
             bar.update()
@@ -118,8 +125,8 @@ def table(result: dict) -> str:
     lines = [
         f"seconds per task, planning + execution, by the number of objects on the shelf (mean over {result['tasks']} tasks each; one task at a time on one core; {result['cpu']})",
         "",
-        "| method | " + " | ".join(str(n) for n in objects) + " | planning share | ms per action |",
-        "| --- | " + " | ".join("---" for _ in objects) + " | --- | --- |",
+        "| method | " + " | ".join(str(n) for n in objects) + " | planning share | ms per action | decisions with > 1 root |",
+        "| --- | " + " | ".join("---" for _ in objects) + " | --- | --- | --- |",
     ]
     for name, rows in result["methods"].items():
         cells = []
@@ -131,7 +138,9 @@ def table(result: dict) -> str:
         plan_all = sum(r["planning_seconds"] for r in rows)
         total_all = plan_all + sum(r["execution_seconds"] for r in rows)
         per_action = 1000 * total_all / sum(r["actions"] for r in rows)
-        lines.append(f"| {name} | " + " | ".join(cells) + f" | {100 * plan_all / total_all:.0f} % | {per_action:.0f} |")
+        roots = [k for r in rows for k in r.get("roots", [])]
+        multi = f"{100 * np.mean([k > 1 for k in roots]):.0f} % of {len(roots)}" if roots else ""
+        lines.append(f"| {name} | " + " | ".join(cells) + f" | {100 * plan_all / total_all:.0f} % | {per_action:.0f} | {multi} |")
     return "\n".join(lines)
 
 

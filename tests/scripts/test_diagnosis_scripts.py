@@ -226,4 +226,6 @@ def test_timing_table_splits_each_task_into_planning_and_execution(tmp_path):
         assert row["planning_seconds"] > 0 and row["execution_seconds"] > 0
     assert result["differ_from_sweep"]["hybrid-2x2"] == 0  # the sweep has this episode; the same seed replays it
     assert "| hybrid-2x2 |" in text and "planning share" in text
+    assert len(result["methods"]["hybrid-2x2"][0]["roots"]) == result["methods"]["hybrid-2x2"][0]["actions"]
+    assert "roots" not in result["methods"]["scripted"][0]
     assert _run("scripts/timing_table.py", "--table", str(out)) == text.split("episodes that differ")[0]
