@@ -280,6 +280,9 @@ def run_eval(args: argparse.Namespace) -> int:
         "first_seed": args.seed,
         **({"rollout_min_scale": args.rollout_min_scale} if args.rollout_min_scale else {}),
         **({"inference": args.inference} if args.inference != "torch" else {}),
+        # times per task: each task's own episode (occrl >= 0.3.0), with `batch` tasks run at a time
+        "timing": "episode",
+        "batch": batch,
         **summarize(results),
         "episodes": [r.to_dict() for r in results],
     }
@@ -288,7 +291,7 @@ def run_eval(args: argparse.Namespace) -> int:
         print(
             f"{args.method}: {args.world} world, stage {stage}, objects {args.objects or 'of the stage'}, noise {args.noise}, {summary['tasks']} tasks: success {summary['success_rate']:.1%} "
             f"(95% CI {lo:.1%}-{hi:.1%}), dropped {summary['dropped']}, mean actions {summary['mean_actions']:.1f}, "
-            f"mean time {summary['mean_seconds']:.2f} s"
+            f"mean time per task {summary['mean_seconds']:.2f} s" + (f" ({batch} tasks at a time)" if batch > 1 else "")
         )
     else:
         print(_summary_table(summary, args.format))

@@ -12,7 +12,8 @@ def test_eval_writes_json(tmp_path, capsys):
     assert main(["eval", "--method", "scripted", "--tasks", "3", "--batch", "3", "--out", str(out), "--no-progress"]) == 0
     data = json.loads(out.read_text())
     assert data["tasks"] == 3 and len(data["episodes"]) == 3 and 0 <= data["success_rate"] <= 1
-    assert "success" in capsys.readouterr().out
+    assert (data["timing"], data["batch"]) == ("episode", 3)  # each task's own episode, 3 at a time
+    assert "mean time per task" in capsys.readouterr().out
 
 
 def test_bad_input_is_an_error_message_not_a_traceback(tmp_path, capsys):
