@@ -27,11 +27,9 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from torchrl.envs.utils import set_exploration_type
 from tqdm import tqdm
 
-from occrl.envs import world_constants as C
-from occrl.envs.episodes import episode_end, seeded_task_env, task_scenes
+from occrl.envs.episodes import run_episodes, task_scenes
 from occrl.eval.methods import METHODS, make_method, method_network
 from occrl.eval.runner import EVAL_SEED_BASE
 from occrl.eval.sweep import SCENE_STAGE
@@ -64,28 +62,30 @@ def time_method(name: str, objects: list[int], tasks: int, bar: tqdm) -> list[di
     rows = []
     for count in objects:
         for seed in range(EVAL_SEED_BASE, EVAL_SEED_BASE + tasks):
-            env = seeded_task_env(
-                method.policy, task_scenes(SCENE_STAGE, [seed], count), [seed], 0.0, method.primers, size=method.image_size
-            )
             timer.seconds, timer.calls = 0.0, 0
             decisions = getattr(method.policy, "decisions", None)  # the hybrid planners' record of each decision
             if decisions is not None:
                 decisions.clear()
-            start = time.perf_counter()
-            with torch.no_grad(), set_exploration_type(method.exploration):
-                td = env.rollout(C.MAX_EPISODE_STEPS, method.policy, break_when_any_done=False, break_when_all_done=True)[0]
-            total = time.perf_counter() - start
-            end = episode_end(td.get(("next", "done")).squeeze(-1).numpy())
-            if timer.calls != end + 1:
-                raise RuntimeError(f"{name} was asked {timer.calls} times for an episode of {end + 1} actions (task {seed})")
+            [result] = run_episodes(
+                method.policy,
+                task_scenes(SCENE_STAGE, [seed], count),
+                [seed],
+                0.0,
+                1,
+                method.primers,
+                method.exploration,
+                size=method.image_size,
+            )
+            if timer.calls != result.actions:
+                raise RuntimeError(f"{name} was asked {timer.calls} times for an episode of {result.actions} actions (task {seed})")
             rows.append(
                 {
                     "objects": count,
                     "seed": seed,
-                    "success": bool(td.get(("next", "success"))[end]),
-                    "actions": end + 1,
+                    "success": result.success,
+                    "actions": result.actions,
                     "planning_seconds": timer.seconds,
-                    "execution_seconds": total - timer.seconds,
+                    "execution_seconds": result.seconds - timer.seconds,
                     # roots weighed per decision (hybrid planners): one whenever the target is detected
                     **({"roots": [len(d.roots) for d in decisions]} if decisions is not None else {}),
                 }

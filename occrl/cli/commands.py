@@ -171,6 +171,7 @@ def _stop_ray_if_used(args: argparse.Namespace) -> None:
 
 def run_eval(args: argparse.Namespace) -> int:
     from occrl.eval.methods import METHODS, PLANNERS, PRIVILEGED, method_network
+    from occrl.envs.episodes import EPISODE_TIMING
     from occrl.eval.runner import run_tasks, summarize
 
     if args.inference != "torch" and (args.sweep or not (args.method or "").startswith("hybrid")):
@@ -281,7 +282,7 @@ def run_eval(args: argparse.Namespace) -> int:
         **({"rollout_min_scale": args.rollout_min_scale} if args.rollout_min_scale else {}),
         **({"inference": args.inference} if args.inference != "torch" else {}),
         # times per task: each task's own episode (occrl >= 0.3.0), with `batch` tasks run at a time
-        "timing": "episode",
+        "timing": EPISODE_TIMING,
         "batch": batch,
         **summarize(results),
         "episodes": [r.to_dict() for r in results],

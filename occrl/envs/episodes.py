@@ -23,7 +23,20 @@ from occrl.envs.pipeline import make_env
 from occrl.envs.robot_frame import DEFAULT_SIZE
 from occrl.envs.scene import Scene
 
-__all__ = ["EpisodeResult", "task_scenes", "task_object_count", "seeded_task_env", "episode_end", "run_episodes", "TIME_LIMIT_S"]
+__all__ = [
+    "EpisodeResult",
+    "task_scenes",
+    "task_object_count",
+    "seeded_task_env",
+    "episode_end",
+    "run_episodes",
+    "TIME_LIMIT_S",
+    "EPISODE_TIMING",
+]
+
+# What a result's times are (the "timing" key of results and sweep points): since occrl 0.3.0 each
+# task's own episode, planning and execution, as run_episodes measures it.
+EPISODE_TIMING = "episode"
 
 TIME_LIMIT_S = 120.0  # a task's time limit (the papers' 2 minutes)
 

@@ -25,7 +25,7 @@ from typing import Sequence
 import numpy as np
 
 from occrl.atomic_files import write_text_atomic
-from occrl.envs.episodes import EpisodeResult, task_object_count
+from occrl.envs.episodes import EPISODE_TIMING, EpisodeResult, task_object_count
 from occrl.eval.runner import EVAL_SEED_BASE, run_tasks, summarize
 
 __all__ = ["SWEEPS", "run_sweep", "summarize_sweep", "sweep_tables", "plot_sweep", "sweep_films", "noise_sweep_objects"]
@@ -40,7 +40,6 @@ SCENE_STAGE = 2  # uniform target placement
 # How a point's times were taken. Points without the key come from before occrl 0.3.0, whose
 # evaluation ran every task for 50 actions (starting it again after its episode ended): their
 # success, drops and actions are exact, their time is that of 50 actions.
-EPISODE_TIMING = "episode"
 LEGACY_TIMING = "50 actions"
 
 
