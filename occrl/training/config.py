@@ -14,7 +14,8 @@ __all__ = ["TrainConfig", "TRAIN_PRESETS", "SETTING_CHOICES", "get_train_config"
 SETTING_CHOICES: dict[str, tuple[str, ...]] = {
     "collector": ("single", "multi", "ray"),
     "optimizer": ("rmsprop", "adam"),
-    "imitation_teacher": ("scripted", "clearing", "clearing-observed", "hybrid", "hybrid-acting", "hierarchical"),
+    "imitation_teacher": ("scripted", "clearing", "clearing-observed", "hybrid", "hybrid-acting", "hierarchical", "self"),
+    "label_episodes": ("all", "success"),
     "promotion": ("learner", "hybrid"),
     "teacher_inference": ("torch", "onnxruntime"),
     "retrieval_labels": ("planner", "scripted"),
@@ -107,8 +108,16 @@ class TrainConfig:
     acted on are labels; collector "single"), "hybrid" (the
     hybrid 4x4 planner on the current network labels, the learner acts: expert iteration),
     "hybrid-acting" (that planner acts and labels, so the value learns the planner's own returns;
-    collector "single") or "hierarchical" (the OMPL hierarchical planner, observations only, acts in
-    a share beta of the episodes and labels every step of the others; collector "single")."""
+    collector "single"), "hierarchical" (the OMPL hierarchical planner, observations only, acts in
+    a share beta of the episodes and labels every step of the others; collector "single") or
+    "self" (the learner acts and its own actions are the labels; needs label_episodes "success":
+    self-imitation, its successful episodes cloned)."""
+    label_episodes: str = "all"
+    """Which episodes' frames are imitation labels with the teachers whose labels are the actions
+    taken ("self", "hybrid-acting"): "all", or "success" (only the frames of episodes that end in
+    success within the batch; the others still train the value and heat-map heads). With "self"
+    the cloned successes are a policy-gradient step on the success probability (beyond the paper:
+    docs/decisions.md, "Cloning only successes")."""
     teacher_inference: str = "torch"
     """Network inference of the hybrid-planner teachers ("hybrid", "hybrid-acting"): "torch" or
     "onnxruntime" (pip install onnx onnxruntime; ~1.2x the labels per second, the same network to

@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
+import torch
 from tensordict import TensorDictBase
 
-__all__ = ["episode_stats"]
+__all__ = ["episode_stats", "successful_episode_frames"]
 
 
 def episode_stats(data: TensorDictBase) -> dict:
@@ -39,3 +40,32 @@ def episode_stats(data: TensorDictBase) -> dict:
             rets.append(float(reward[b, : t + 1].sum()))
             lens.append(t + 1)
     return {"success": succ, "returns": rets, "lengths": lens}
+
+
+def successful_episode_frames(data: TensorDictBase) -> torch.Tensor:
+    """Per frame of a collected [B, T] batch: whether the frame's episode ends in success within
+    the batch. An episode runs from a frame flagged ``"is_init"`` (or the row's first frame) to
+    its ``("next", "done")``; the frames of an episode the batch cuts off are False. Shape: the
+    batch's.
+
+    Examples:
+        >>> from occrl.baselines import ScriptedRetriever
+        >>> from occrl.envs import Scene, make_env
+        >>> from occrl.training.stats import successful_episode_frames
+        >>> env = make_env(batch_size=1, scenes=[Scene.sample(1, seed=0, num_objects=1)], heatmap_target=False)
+        >>> data = env.rollout(50, ScriptedRetriever(), break_when_any_done=False)  # a success, then a cut-off episode
+        >>> length = episode_stats(data)["lengths"][0]
+        >>> frames = successful_episode_frames(data)[0]
+        >>> bool(frames[:length].all()), bool(frames[length:].any())
+        (True, False)
+    """
+    done = data.get(("next", "done")).reshape(data.shape)
+    success = data.get(("next", "success")).reshape(data.shape)
+    starts = data.get("is_init").reshape(data.shape)
+    out = torch.zeros(data.shape, dtype=torch.bool)
+    ending = torch.zeros(data.shape[:-1], dtype=torch.bool)  # the outcome of the episode the frame belongs to
+    for t in reversed(range(data.shape[-1])):
+        ending = torch.where(done[..., t], success[..., t], ending)
+        out[..., t] = ending
+        ending = ending & ~starts[..., t]  # the frame before a start belongs to another episode
+    return out

@@ -61,7 +61,7 @@ from occrl.training.run_folder import (
     same_run_settings,
     truncate_metrics,
 )
-from occrl.training.stats import episode_stats
+from occrl.training.stats import episode_stats, successful_episode_frames
 
 __all__ = ["Trainer", "hybrid_validation_success", "VALIDATION_SEED_BASE"]
 
@@ -140,6 +140,16 @@ class Trainer:
             raise ValueError(
                 f"takeover_retriever {config.takeover_retriever!r} / takeover_at {config.takeover_at!r} need retrieval_takeover > 0 (the share taken over)"
             )
+        if config.label_episodes != "all" and config.imitation_teacher not in ("self", "hybrid-acting"):
+            raise ValueError(
+                f"label_episodes={config.label_episodes!r} applies to the teachers whose labels are the actions taken "
+                f"('self', 'hybrid-acting'), not {config.imitation_teacher!r}"
+            )
+        if config.imitation_teacher == "self" and config.label_episodes != "success":
+            raise ValueError(
+                "imitation_teacher='self' needs label_episodes='success': the learner's own actions of every "
+                "episode as labels teach nothing (their expected gradient is zero)"
+            )
         if config.teacher_weights and config.imitation_teacher != "hybrid-acting":
             raise ValueError(f"teacher_weights applies to imitation_teacher 'hybrid-acting', not {config.imitation_teacher!r}")
         if config.imitation_teacher in ("hybrid", "hybrid-acting") and not config.heatmap and not config.teacher_weights:
@@ -205,6 +215,8 @@ class Trainer:
             if config.retrieval_takeover > 0:  # a retriever acts in a share of the retrievals
                 taker = self._teacher(config.takeover_retriever)
                 self.expert = RetrievalTakeover(self.expert, taker, config.retrieval_takeover, seed=self.seed, at=config.takeover_at)
+        elif config.imitation_teacher == "self":
+            self.expert = None  # the learner acts and labels
         else:
             self.expert = self._teacher(config.imitation_teacher)
         self.retriever = ScriptedRetriever()  # labels the target-in-view steps (retrieval_labels="scripted")
@@ -275,7 +287,7 @@ class Trainer:
         """Probability that the expert acts: 1 -> ``imitation_beta_min`` over the first
         ``imitation_beta_iters`` iterations of the warm start, 0 afterwards (PPO)."""
         c = self.config
-        if self.iteration >= c.imitation_iters or c.imitation_teacher == "hybrid":
+        if self.iteration >= c.imitation_iters or c.imitation_teacher in ("hybrid", "self"):
             return 0.0
         if c.imitation_teacher == "hybrid-acting":
             return 1.0
@@ -304,7 +316,7 @@ class Trainer:
             return OnlineTeacherPolicy(self.acting_net.policy, self.expert, 0.0, label_kinds=kinds)
         if c.imitation_iters > 0 and c.imitation_teacher == "clearing-observed":
             return OnlineTeacherPolicy(self.acting_net.policy, self.expert, 0.0, from_first_sight=True)
-        if c.imitation_iters > 0:
+        if c.imitation_iters > 0 and c.imitation_teacher != "self":
             return ExpertMixPolicy(self.acting_net.policy, self.expert, 0.0)
         return self.acting_net.policy
 
@@ -429,6 +441,8 @@ class Trainer:
                     data.set("expert_action", data.get("action").clone())  # the planner acted
                     if c.retrieval_labels == "scripted":
                         relabel_retrieval(data, self.retriever)
+                elif phase == "imitation" and c.imitation_teacher == "self":
+                    data.set("expert_action", data.get("action").clone())  # the learner acted
                 elif c.imitation_teacher == "hierarchical":
                     pass  # labelled while collecting (OnlineTeacherPolicy), in every phase
                 elif phase == "imitation" and c.imitation_teacher == "clearing-observed":
@@ -439,6 +453,11 @@ class Trainer:
                     label_with_expert(data, self.expert)
                     if c.imitation_teacher == "clearing":  # retrieval labels only: the learner keeps its search
                         data.set("expert_weight", since_first_sight(data).to(torch.float32))
+                if phase == "imitation" and c.label_episodes == "success":
+                    successes = successful_episode_frames(data).to(torch.float32)
+                    if "expert_weight" in data.keys():
+                        successes = successes * data.get("expert_weight")
+                    data.set("expert_weight", successes)
                 consistent, unfinished = False, self.iteration + 1
                 batch = self.learner.on_device(data)  # the collected batch (CPU) where the learner is
                 compute_advantages(self.net, batch, c.gamma, c.gae_lambda)
