@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from occrl.eval.runner import mcnemar_p, wilson_interval
+from occrl.eval.sweep import point_episodes, sweep_points
 
 BASELINES = ["greedy", "stochastic", "stochastic-gen", "hierarchical"]
 
@@ -38,11 +39,10 @@ def load(path: str) -> dict:
 
 def load_episodes(path: str) -> dict:
     """{(sweep, method, value): {seed: success}} from the ``points/`` folder beside ``results.json`` (empty if none)."""
-    episodes = {}
-    for f in sorted((Path(path).parent / "points").glob("*.json")):
-        point = json.loads(f.read_text())
-        episodes[(point["sweep"], point["method"], float(point["value"]))] = {e["seed"]: bool(e["success"]) for e in point["episodes"]}
-    return episodes
+    return {
+        (p["sweep"], p["method"], float(p["value"])): {seed: e.success for seed, e in point_episodes(p).items()}
+        for p in sweep_points(Path(path).parent)
+    }
 
 
 def paired(table, episodes, a: str, b: str, points) -> str:
@@ -192,7 +192,7 @@ def claims(table, episodes=None) -> list[tuple[str, str, str, str]]:
         )
     # 5. hierarchical drops sharpest
     for sweep in ("clutter", "noise"):
-        slopes = {m: slope(table, sweep, m) for m in {m for (sw, m) in table if sw == sweep}}
+        slopes = {m: slope(table, sweep, m) for m in sorted({m for (sw, m) in table if sw == sweep})}
         slopes = {m: v for m, v in slopes.items() if v is not None}
         if "hierarchical" in slopes and len(slopes) > 1:
             steepest = min(slopes, key=slopes.get)
@@ -213,7 +213,7 @@ def claims(table, episodes=None) -> list[tuple[str, str, str, str]]:
                     "fitted change of success over the axis (95 % interval): "
                     + ", ".join(
                         f"{m} {100 * v:+.0f} ({100 * ci[m][0]:+.0f} to {100 * ci[m][1]:+.0f})"
-                        for m, v in sorted(slopes.items(), key=lambda kv: kv[1])
+                        for m, v in sorted(slopes.items(), key=lambda kv: (kv[1], kv[0]))  # ties by name: a stable order
                     ),
                     "agrees" if steepest == "hierarchical" else f"disagrees (steepest: {steepest})",
                     spread,

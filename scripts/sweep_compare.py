@@ -14,19 +14,15 @@ what a model gap costs a method at each clutter level.
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 from occrl.eval.runner import mcnemar_p
+from occrl.eval.sweep import point_episodes, sweep_points
 
 
-def point_episodes(folder: Path, method: str, sweep: str) -> dict[float, dict[int, bool]]:
+def method_points(folder: Path, method: str, sweep: str) -> dict[float, dict[int, bool]]:
     """{value: {seed: success}} of ``method``'s points on ``sweep`` in a sweep folder."""
-    points = {}
-    for f in sorted((folder / "points").glob(f"{method}__{sweep}__*.json")):
-        point = json.loads(f.read_text())
-        points[float(point["value"])] = {e["seed"]: bool(e["success"]) for e in point["episodes"]}
-    return points
+    return {float(p["value"]): {seed: e.success for seed, e in point_episodes(p).items()} for p in sweep_points(folder, method, sweep)}
 
 
 def parse_groups(text: str) -> list[tuple[float, float]]:
@@ -77,7 +73,7 @@ def main() -> None:
             parser.error(f"{folder} has no points/ folder: give the folder a sweep wrote (occrl eval --sweep --out)")
     print(f"{args.method}, {args.sweep} sweep: A = {args.a}, B = {args.b}\n")
     print(
-        compare(point_episodes(args.a, args.method, args.sweep), point_episodes(args.b, args.method, args.sweep), parse_groups(args.groups))
+        compare(method_points(args.a, args.method, args.sweep), method_points(args.b, args.method, args.sweep), parse_groups(args.groups))
     )
 
 

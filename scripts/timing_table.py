@@ -32,7 +32,7 @@ from tqdm import tqdm
 from occrl.envs.episodes import run_episodes, task_scenes
 from occrl.eval.methods import METHODS, make_method, method_network
 from occrl.eval.runner import EVAL_SEED_BASE
-from occrl.eval.sweep import SCENE_STAGE
+from occrl.eval.sweep import SCENE_STAGE, point_episodes, sweep_points
 
 STUDY_METHODS = ["hybrid-2x2", "hybrid-4x4", "hybrid-6x6", "hybrid-lim-4x4", "greedy", "stochastic", "stochastic-gen", "hierarchical"]
 
@@ -96,16 +96,12 @@ def time_method(name: str, objects: list[int], tasks: int, bar: tqdm) -> list[di
 
 def check_against_sweep(name: str, rows: list[dict], sweep: Path) -> int:
     """Number of episodes that differ from the sweep's (outcome or action count); missing points are skipped."""
+    ref = {float(p["value"]): point_episodes(p) for p in sweep_points(sweep, name, "clutter")}
     differ = 0
-    for count in sorted({r["objects"] for r in rows}):
-        path = sweep / "points" / f"{name}__clutter__{count:g}.json"
-        if not path.exists():
-            continue
-        ref = {e["seed"]: e for e in json.loads(path.read_text())["episodes"]}
-        for r in rows:
-            e = ref.get(r["seed"]) if r["objects"] == count else None
-            if e is not None and (bool(e["success"]) != r["success"] or int(e["actions"]) != r["actions"]):
-                differ += 1
+    for r in rows:
+        e = ref.get(float(r["objects"]), {}).get(r["seed"])
+        if e is not None and (e.success != r["success"] or e.actions != r["actions"]):
+            differ += 1
     return differ
 
 

@@ -28,7 +28,17 @@ from occrl.atomic_files import write_text_atomic
 from occrl.envs.episodes import EPISODE_TIMING, EpisodeResult, task_object_count
 from occrl.eval.runner import EVAL_SEED_BASE, run_tasks, summarize
 
-__all__ = ["SWEEPS", "run_sweep", "summarize_sweep", "sweep_tables", "plot_sweep", "sweep_films", "noise_sweep_objects"]
+__all__ = [
+    "SWEEPS",
+    "run_sweep",
+    "summarize_sweep",
+    "sweep_tables",
+    "plot_sweep",
+    "sweep_films",
+    "noise_sweep_objects",
+    "sweep_points",
+    "point_episodes",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -121,7 +131,7 @@ def run_sweep(
     chunk = chunk or tasks
     points = [(sweep, value, method) for sweep in sweeps for value in (values or SWEEPS)[sweep] for method in methods]
     all_seeds = set(range(first_seed, first_seed + tasks))
-    to_run = sum(len(all_seeds - set(_episodes_by_seed(_cached_point(_point_path(out, m, sw, v))))) for sw, v, m in points)
+    to_run = sum(len(all_seeds - set(point_episodes(_cached_point(_point_path(out, m, sw, v))))) for sw, v, m in points)
     # one bar (and ETA) for the whole sweep; the points advance it task by task
     bar = tqdm(total=to_run, desc=f"sweep ({len(points)} points)", unit="task", disable=not progress)
     networks = {m: method_network(m, weights) for m in methods}  # (name, SHA-256 of the weights) per method
@@ -130,7 +140,7 @@ def run_sweep(
         for sweep, value, method in points:
             path = _point_path(out, method, sweep, value)
             cached = _cached_point(path)  # read once: its episodes and its noise
-            done = _episodes_by_seed(cached)
+            done = point_episodes(cached)
             if done and min(done) != first_seed:
                 raise ValueError(
                     f"{path} holds task seeds from {min(done)}, not from {first_seed}: use another --out folder for other task seeds"
@@ -210,13 +220,25 @@ def _cached_point(path: Path) -> dict | None:
     return json.loads(path.read_text()) if path.exists() else None
 
 
-def _episodes_by_seed(point: dict | None) -> dict[int, EpisodeResult]:
-    """The episodes a cached point holds, by seed (empty for no point)."""
+def point_episodes(point: dict | None) -> dict[int, EpisodeResult]:
+    """The episodes a cached point holds, by task seed (empty for no point).
+
+    Examples:
+        >>> from occrl.eval.sweep import point_episodes
+        >>> point = {"episodes": [{"seed": 7, "objects": 1, "success": True, "dropped": False, "actions": 9, "seconds": 0.3}]}
+        >>> point_episodes(point)[7].success, point_episodes(None)
+        (True, {})
+    """
     return {} if point is None else {e["seed"]: EpisodeResult(**e) for e in point["episodes"]}
 
 
-def _points(out: Path) -> list[dict]:
-    return [json.loads(p.read_text()) for p in sorted((out / "points").glob("*.json"))]
+def sweep_points(out: str | Path, method: str | None = None, sweep: str | None = None) -> list[dict]:
+    """The cached points of the sweep folder ``out`` (``out/points/*.json``) as written, those of
+    one ``method`` and / or one ``sweep`` ("clutter", "noise") when given; their episodes:
+    :func:`point_episodes`. What the analysis scripts read (``scripts/sweep_claims.py``,
+    ``sweep_compare.py``, ``timing_table.py``)."""
+    points = [json.loads(p.read_text()) for p in sorted((Path(out) / "points").glob("*.json"))]
+    return [p for p in points if method in (None, p["method"]) and sweep in (None, p["sweep"])]
 
 
 def summarize_sweep(out: str | Path) -> list[dict]:
@@ -240,7 +262,7 @@ def summarize_sweep(out: str | Path) -> list[dict]:
     """
     out = Path(out)
     rows = []
-    for p in _points(out):
+    for p in sweep_points(out):
         rows.append(
             {k: p[k] for k in ("method", "sweep", "value", "tasks", "successes", "success_rate", "dropped", "mean_actions", "mean_seconds")}
             | {"noise": _point_noise(p), "timing": p.get("timing", LEGACY_TIMING)}
@@ -366,7 +388,7 @@ def sweep_films(out: str | Path, method: str, solved: int = 3, failed: int = 1, 
     from occrl.envs.episodes import episode_end, seeded_task_env, task_scenes
 
     out = Path(out)
-    points = sorted((p for p in _points(out) if p["method"] == method and p["sweep"] == "clutter"), key=lambda p: -p["value"])
+    points = sorted((p for p in sweep_points(out) if p["method"] == method and p["sweep"] == "clutter"), key=lambda p: -p["value"])
     for point in points:
         wins = [e for e in point["episodes"] if e["success"]][:solved]
         losses = [e for e in point["episodes"] if not e["success"]][:failed]

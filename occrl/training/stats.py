@@ -53,9 +53,9 @@ def successful_episode_frames(data: TensorDictBase) -> torch.Tensor:
         >>> from occrl.envs import Scene, make_env
         >>> from occrl.training.stats import successful_episode_frames
         >>> env = make_env(batch_size=1, scenes=[Scene.sample(1, seed=0, num_objects=1)], heatmap_target=False)
-        >>> data = env.rollout(50, ScriptedRetriever(), break_when_any_done=False)  # a success, then a cut-off episode
+        >>> data = env.rollout(50, ScriptedRetriever(), break_when_any_done=False)
         >>> length = episode_stats(data)["lengths"][0]
-        >>> frames = successful_episode_frames(data)[0]
+        >>> frames = successful_episode_frames(data[:, : length + 2])[0]  # a success, then an episode cut off
         >>> bool(frames[:length].all()), bool(frames[length:].any())
         (True, False)
     """

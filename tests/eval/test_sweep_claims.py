@@ -86,7 +86,7 @@ def test_methods_on_the_same_tasks_are_compared_by_mcnemar_on_the_sweeps_episode
     }
     rows = []
     for method, wins in solved.items():
-        episodes = [{"seed": s, "success": s in wins} for s in range(100)]
+        episodes = [{"seed": s, "objects": 1, "success": s in wins, "dropped": False, "actions": 9, "seconds": 0.1} for s in range(100)]
         point = {"method": method, "sweep": "clutter", "value": 1.0, "episodes": episodes}
         (tmp_path / "points" / f"{method}__clutter__1.json").write_text(json.dumps(point))
         rows.append(_row(method, "clutter", 1.0, len(wins) / 100) | {"tasks": 100, "successes": len(wins)})

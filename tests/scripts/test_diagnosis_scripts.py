@@ -235,7 +235,9 @@ def test_sweep_compare_counts_the_tasks_each_folder_alone_solved(tmp_path):
     for name, wins in (("a", {1, 2, 3}), ("b", {2, 3, 4})):
         (tmp_path / name / "points").mkdir(parents=True)
         for value in (1, 2):
-            episodes = [{"seed": s, "success": s in wins} for s in range(6)]
+            episodes = [
+                {"seed": s, "objects": value, "success": s in wins, "dropped": False, "actions": 9, "seconds": 0.1} for s in range(6)
+            ]
             point = {"method": "greedy", "sweep": "clutter", "value": float(value), "episodes": episodes}
             (tmp_path / name / "points" / f"greedy__clutter__{value}.json").write_text(json.dumps(point))
     out = _run("scripts/sweep_compare.py", str(tmp_path / "a"), str(tmp_path / "b"), "--method", "greedy", "--groups", "1-2")
