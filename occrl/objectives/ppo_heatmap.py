@@ -74,6 +74,8 @@ class PPOHeatmapLoss(ClipPPOLoss):
         heatmap_fraction: share of frames whose heat-map is decoded for the loss (1.0 = all).
         loss_critic_type: ``"smooth_l1"`` (default; returns reach -100, and an L2 value loss
             would dominate the clipped gradient) or ``"l2"`` (the paper's squared error).
+        critic_to_trunk: whether the value loss's gradient reaches the shared trunk (the
+            paper: True). False: the value head learns on the trunk's ``"belief"`` detached.
 
     The input tensordict has batch dims [B, T] (B sequences of T steps) and carries
     ``"advantage"`` and ``"value_target"`` (see :func:`compute_advantages`).
@@ -105,6 +107,7 @@ class PPOHeatmapLoss(ClipPPOLoss):
         normalize_advantage: bool = True,
         heatmap_fraction: float = 1.0,
         loss_critic_type: str = "smooth_l1",
+        critic_to_trunk: bool = True,
     ) -> None:
         super().__init__(
             actor_network=net.actor,
@@ -121,6 +124,13 @@ class PPOHeatmapLoss(ClipPPOLoss):
         self.heatmap_head = net.heatmap_head
         self.heatmap_coeff = heatmap_coeff
         self.heatmap_fraction = heatmap_fraction
+        self.critic_to_trunk = critic_to_trunk
+
+    def loss_critic(self, tensordict: TensorDictBase):
+        if not self.critic_to_trunk:  # the value head alone: the trunk's features as they are
+            tensordict = tensordict.copy()
+            tensordict.set("belief", tensordict.get("belief").detach())
+        return super().loss_critic(tensordict)
 
     def forward(self, tensordict: TensorDictBase) -> TensorDict:
         td = tensordict.copy()

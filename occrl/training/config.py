@@ -80,6 +80,11 @@ class TrainConfig:
     """PPO ratio clip."""
     critic_coeff: float = 0.5
     """c1: weight of the value loss."""
+    critic_to_trunk: bool = True
+    """Whether the value loss's gradient reaches the shared encoder and LSTM (the paper: all losses
+    train the trunk). False: the value head learns on the trunk's features detached, so a value
+    that fits badly cannot move the features the policy reads (beyond the paper; docs/decisions.md,
+    "Cloning only successes")."""
     entropy_coeff: float = 0.01
     """c2: weight of the entropy bonus."""
     heatmap_coeff: float = 1.0

@@ -42,6 +42,7 @@ class Learner:
             heatmap_coeff=config.heatmap_coeff,
             gamma=config.gamma,
             heatmap_fraction=config.heatmap_fraction,
+            critic_to_trunk=config.critic_to_trunk,
         )
         params: list = list(net.parameters())
         if config.detail_lr > 0:
@@ -140,7 +141,11 @@ class Learner:
         return {"loss_critic": self.value_loss(td)}
 
     def value_loss(self, td: TensorDictBase) -> torch.Tensor:
-        """c1 x smooth-L1 value loss of the value head on ``td`` (which holds ``"belief"``)."""
+        """c1 x smooth-L1 value loss of the value head on ``td`` (which holds ``"belief"``; detached
+        first unless ``critic_to_trunk``)."""
+        if not self.config.critic_to_trunk:
+            td = td.select("belief", "value_target").copy()
+            td.set("belief", td.get("belief").detach())
         value = self.net.critic(td).get("state_value")
         return self.config.critic_coeff * torch.nn.functional.smooth_l1_loss(value, td.get("value_target"))
 

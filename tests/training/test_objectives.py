@@ -100,3 +100,30 @@ def test_advantages_reuse_embeddings_exactly_across_episode_ends():
     )
     torch.testing.assert_close(got["advantage"], adv, rtol=0, atol=1e-6)
     torch.testing.assert_close(got["value_target"], target, rtol=0, atol=1e-6)
+
+
+@pytest.mark.parametrize("to_trunk", [True, False])
+def test_critic_to_trunk_decides_whether_the_value_loss_trains_the_trunk(batch, to_trunk):
+    """critic_to_trunk=False: the value loss trains the value head alone, in PPO and in the
+    imitation update, and leaves its value unchanged."""
+    from occrl.training import get_train_config
+    from occrl.training.learner import Learner
+
+    net, data = batch
+    encoder = list(net.encoder.parameters())
+    head = list(net.critic.parameters())
+
+    def grads(loss):
+        net.zero_grad()
+        loss.backward()
+        return [p.grad is not None and bool(p.grad.abs().sum() > 0) for p in (encoder[0], head[0])]
+
+    loss = PPOHeatmapLoss(net, critic_to_trunk=to_trunk)
+    ppo = loss(data.copy())
+    assert grads(ppo["loss_critic"]) == [to_trunk, True]
+    if not to_trunk:  # the same value either way
+        assert ppo["loss_critic"].item() == pytest.approx(PPOHeatmapLoss(net)(data.copy())["loss_critic"].item(), rel=1e-6)
+    learner = Learner(net, get_train_config("tiny", critic_to_trunk=to_trunk), torch.device("cpu"))
+    terms = learner.imitation_terms(data.copy().set("expert_action", data["action"]))
+    assert grads(terms["loss_critic"]) == [to_trunk, True]
+    net.zero_grad()
