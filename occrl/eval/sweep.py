@@ -388,7 +388,7 @@ def sweep_films(out: str | Path, method: str, solved: int = 3, failed: int = 1, 
     from occrl.envs.episodes import episode_end, seeded_task_env, task_scenes
 
     out = Path(out)
-    points = sorted((p for p in sweep_points(out) if p["method"] == method and p["sweep"] == "clutter"), key=lambda p: -p["value"])
+    points = sorted(sweep_points(out, method, "clutter"), key=lambda p: -p["value"])
     for point in points:
         wins = [e for e in point["episodes"] if e["success"]][:solved]
         losses = [e for e in point["episodes"] if not e["success"]][:failed]

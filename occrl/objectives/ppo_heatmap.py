@@ -21,7 +21,7 @@ from torchrl.objectives.value.functional import generalized_advantage_estimate
 from occrl.envs import world_constants as C
 from occrl.modules.occnet import OccNet
 
-__all__ = ["PPOHeatmapLoss", "heatmap_bce", "heatmap_loss", "compute_advantages", "imitation_nll"]
+__all__ = ["PPOHeatmapLoss", "heatmap_bce", "heatmap_loss", "compute_advantages", "imitation_nll", "belief_detached"]
 
 HEATMAP_TARGET_KEY = ("privileged", "heatmap_target")
 
@@ -61,6 +61,23 @@ def heatmap_loss(heatmap_head, td: TensorDictBase, fraction: float = 1.0) -> tor
         flat = flat[torch.randperm(n)[: max(1, int(round(fraction * n)))]]
     logits = heatmap_head(flat.select("belief").copy()).get("heatmap_logits")
     return heatmap_bce(logits, flat.get(HEATMAP_TARGET_KEY))
+
+
+def belief_detached(td: TensorDictBase) -> TensorDictBase:
+    """A shallow copy of ``td`` whose ``"belief"`` is detached: a head trained on it leaves the
+    shared trunk alone (``critic_to_trunk=False``).
+
+    Examples:
+        >>> import torch
+        >>> from tensordict import TensorDict
+        >>> from occrl.objectives import belief_detached
+        >>> td = TensorDict({"belief": torch.ones(2, 3, requires_grad=True)}, batch_size=[2])
+        >>> belief_detached(td)["belief"].requires_grad, td["belief"].requires_grad
+        (False, True)
+    """
+    out = td.copy()
+    out.set("belief", out.get("belief").detach())
+    return out
 
 
 class PPOHeatmapLoss(ClipPPOLoss):
@@ -128,8 +145,7 @@ class PPOHeatmapLoss(ClipPPOLoss):
 
     def loss_critic(self, tensordict: TensorDictBase):
         if not self.critic_to_trunk:  # the value head alone: the trunk's features as they are
-            tensordict = tensordict.copy()
-            tensordict.set("belief", tensordict.get("belief").detach())
+            tensordict = belief_detached(tensordict)
         return super().loss_critic(tensordict)
 
     def forward(self, tensordict: TensorDictBase) -> TensorDict:

@@ -12,7 +12,7 @@ from tensordict import TensorDictBase
 from torchrl.modules import set_recurrent_mode
 
 from occrl.modules import OccNet
-from occrl.objectives import PPOHeatmapLoss, heatmap_loss, imitation_nll
+from occrl.objectives import PPOHeatmapLoss, belief_detached, heatmap_loss, imitation_nll
 from occrl.training.config import TrainConfig
 from occrl.training.dagger_buffer import DaggerBuffer
 
@@ -144,8 +144,7 @@ class Learner:
         """c1 x smooth-L1 value loss of the value head on ``td`` (which holds ``"belief"``; detached
         first unless ``critic_to_trunk``)."""
         if not self.config.critic_to_trunk:
-            td = td.select("belief", "value_target").copy()
-            td.set("belief", td.get("belief").detach())
+            td = belief_detached(td.select("belief", "value_target"))
         value = self.net.critic(td).get("state_value")
         return self.config.critic_coeff * torch.nn.functional.smooth_l1_loss(value, td.get("value_target"))
 
