@@ -48,6 +48,26 @@ from occrl.planners.rhp import NetworkStepper
 from occrl.pretrained import network_name, weights_file
 
 
+def true_state(obs: TensorDictBase) -> RecreatedState:
+    """The true state of one observation (it reads ``"privileged"``): every object on the shelf at
+    its true pose and shape, hidden ones included, the target where it is; the gripper as recreated.
+    A held object is between the fingers at its true pose, so the imagined world grasps it."""
+    state = recreate(obs)
+    priv = obs.get("privileged")
+    slot = int(priv.get("target_slot").reshape(-1)[0])
+    poses = priv.get("object_pose").cpu().numpy().astype(float)
+    present = priv.get("object_present").cpu().numpy().astype(bool)
+    vertices = priv.get("object_vertices").cpu().numpy().astype(float)
+    counts = priv.get("object_num_vertices").cpu().numpy()
+    # rendering tells only the target from the rest: any other type id will do for clutter
+    clutter_type = state.target_type + 1
+    objects = tuple(
+        SceneObject(state.target_type if k == slot else clutter_type, vertices[k, : counts[k]], tuple(poses[k]), k == slot)
+        for k in np.flatnonzero(present)
+    )
+    return RecreatedState(objects, state.gripper_pose, state.opening, state.closed, state.target_type, state.target_vertices)
+
+
 class ZeroValueStepper(NetworkStepper):
     """The roll-outs' network calls with a value of 0 at the horizon."""
 
@@ -83,18 +103,7 @@ class OracleRootsPlanner(HybridPlanner):
             if state.target_detected:
                 return [Root(state, 1.0)]
             return [Root(with_target(state, tuple(poses[slot])), 1.0)]
-        present = priv.get("object_present").cpu().numpy().astype(bool)
-        vertices = priv.get("object_vertices").cpu().numpy().astype(float)
-        counts = priv.get("object_num_vertices").cpu().numpy()
-        # rendering tells only the target from the rest: any other type id will do for clutter
-        clutter_type = state.target_type + 1
-        objects = tuple(
-            SceneObject(state.target_type if k == slot else clutter_type, vertices[k, : counts[k]], tuple(poses[k]), k == slot)
-            for k in np.flatnonzero(present)
-        )
-        # a held object is between the fingers at its true pose: the imagined world grasps it
-        true_state = RecreatedState(objects, state.gripper_pose, state.opening, state.closed, state.target_type, state.target_vertices)
-        return [Root(true_state, 1.0)]
+        return [Root(true_state(obs), 1.0)]
 
 
 def main() -> None:

@@ -73,6 +73,15 @@ def test_failure_categories_splits_a_missed_grasp(tmp_path):
     assert "detected, never held: 1 " in out
 
 
+def test_close_outcomes_finds_grasps_that_only_the_recreated_world_makes():
+    # held-out stage-2 task 10000057: the planner on occnet-takeover sees the target all along and
+    # closes on it five times; its recreated world grasps, the true state (an object the camera
+    # has not seen between the fingers) and the real world do not
+    out = _run("scripts/close_outcomes.py", "--seeds", "10000057", "--weights", "occnet-takeover")
+    assert "1 tasks, weights occnet-takeover: 5 closes" in out
+    assert "target seen / imagined grasp / true-state miss / real miss" in out
+
+
 def test_image_limited_retriever_reads_the_target_from_the_image(tmp_path):
     out_file = tmp_path / "r.json"
     out = _run(
