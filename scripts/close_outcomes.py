@@ -35,12 +35,10 @@ import numpy as np
 from occrl.envs import world_constants as C
 from occrl.envs.pymunk2d.world import grasp_candidate
 from occrl.eval.methods import make_method
-from occrl.eval.runner import rollout_tasks
+from occrl.eval.runner import EVAL_SEED_BASE, rollout_tasks
 from occrl.planners import make_world, recreate
 from occrl.pretrained import weights_file
 from oracle_roots import true_state  # scripts/: run as `python scripts/close_outcomes.py`
-
-HELD_OUT_FIRST_SEED = 10_000_000
 
 
 def blocking_objects(td, t: int, truth) -> list[dict]:
@@ -123,7 +121,7 @@ def main() -> None:
     args = parser.parse_args()
     if not args.method.startswith("hybrid"):
         raise SystemExit(f"--method must be a hybrid planner (hybrid-2x2, hybrid-4x4, ...), got {args.method!r}")
-    seeds = [int(s) for s in args.seeds.split(",")] if args.seeds else list(range(HELD_OUT_FIRST_SEED, HELD_OUT_FIRST_SEED + args.tasks))
+    seeds = [int(s) for s in args.seeds.split(",")] if args.seeds else list(range(EVAL_SEED_BASE, EVAL_SEED_BASE + args.tasks))
     method = make_method(args.method, weights_file(args.weights))
     records = []
     for seed in seeds:
