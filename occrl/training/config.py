@@ -10,7 +10,7 @@ from occrl.envs import world_constants as C
 
 __all__ = ["TrainConfig", "TRAIN_PRESETS", "SETTING_CHOICES", "get_train_config", "training_device"]
 
-# The values a string setting accepts (the trainer checks them; ``occrl train`` offers them).
+# The values a string setting accepts (TrainConfig.validate checks them; ``occrl train`` offers them).
 SETTING_CHOICES: dict[str, tuple[str, ...]] = {
     "collector": ("single", "multi", "ray"),
     "optimizer": ("rmsprop", "adam"),
@@ -198,6 +198,74 @@ class TrainConfig:
     @property
     def frames_per_batch(self) -> int:
         return self.num_envs * self.steps_per_env
+
+    def validate(self) -> None:
+        """Refuse settings that are out of range or do not go together (``ValueError`` naming what was
+        wrong and what is allowed). The trainer calls it before it builds anything.
+
+        Examples:
+            >>> from occrl.training import get_train_config
+            >>> get_train_config("tiny").validate()
+            >>> get_train_config("tiny", imitation_teacher="self").validate()
+            Traceback (most recent call last):
+                ...
+            ValueError: imitation_teacher='self' needs label_episodes='success': the learner's own actions of every episode as labels teach nothing (their expected gradient is zero)
+        """
+        for name, allowed in SETTING_CHOICES.items():  # every string setting with a fixed set of values
+            if getattr(self, name) not in allowed:
+                raise ValueError(f"{name} must be one of {allowed}, got {getattr(self, name)!r}")
+        if self.promotion_eval_tasks < 1:
+            raise ValueError(f"promotion_eval_tasks must be >= 1, got {self.promotion_eval_tasks}")
+        if self.replay_stage_workers < 0:
+            raise ValueError(f"replay_stage_workers must be >= 0, got {self.replay_stage_workers}")
+        if self.replay_stage_workers and (self.collector == "single" or self.replay_stage_workers >= self.workers):
+            raise ValueError(
+                f"replay_stage_workers={self.replay_stage_workers} needs collector 'multi' or 'ray' and "
+                f"fewer than workers={self.workers} (got collector {self.collector!r})"
+            )
+        if self.retrieval_labels != "planner" and self.imitation_teacher != "hybrid-acting":
+            raise ValueError(f"retrieval_labels applies to imitation_teacher 'hybrid-acting', not {self.imitation_teacher!r}")
+        if not 0.0 <= self.retrieval_takeover <= 1.0:
+            raise ValueError(f"retrieval_takeover must be a share in [0, 1], got {self.retrieval_takeover!r}")
+        if self.retrieval_takeover > 0 and self.imitation_teacher != "hybrid-acting":
+            raise ValueError(f"retrieval_takeover applies to imitation_teacher 'hybrid-acting', not {self.imitation_teacher!r}")
+        if (self.takeover_retriever, self.takeover_at) != ("scripted", "first-sight") and self.retrieval_takeover == 0:
+            raise ValueError(
+                f"takeover_retriever {self.takeover_retriever!r} / takeover_at {self.takeover_at!r} need retrieval_takeover > 0 (the share taken over)"
+            )
+        if self.label_episodes != "all" and self.imitation_teacher not in ("self", "hybrid-acting"):
+            raise ValueError(
+                f"label_episodes={self.label_episodes!r} applies to the teachers whose labels are the actions taken "
+                f"('self', 'hybrid-acting'), not {self.imitation_teacher!r}"
+            )
+        if self.imitation_teacher == "self" and self.label_episodes != "success":
+            raise ValueError(
+                "imitation_teacher='self' needs label_episodes='success': the learner's own actions of every "
+                "episode as labels teach nothing (their expected gradient is zero)"
+            )
+        if self.teacher_weights and self.imitation_teacher != "hybrid-acting":
+            raise ValueError(f"teacher_weights applies to imitation_teacher 'hybrid-acting', not {self.imitation_teacher!r}")
+        if self.imitation_teacher in ("hybrid", "hybrid-acting") and not self.heatmap and not self.teacher_weights:
+            raise ValueError(
+                f"imitation_teacher={self.imitation_teacher!r} needs the heat-map head (the hybrid planner uses it), "
+                "or, for 'hybrid-acting', teacher_weights naming a fixed network with one to plan with"
+            )
+        if self.imitation_teacher in ("hybrid-acting", "hierarchical", "clearing-observed") and self.collector != "single":
+            raise ValueError(
+                f"imitation_teacher={self.imitation_teacher!r} needs collector 'single' (the teacher's network "
+                f"or episode memory lives in this process), got collector {self.collector!r}"
+            )
+        if self.teacher_label_kinds != "all":
+            from occrl.baselines.hierarchical import ACTION_KINDS
+
+            kinds = self.teacher_label_kinds.split(",")
+            if self.imitation_teacher != "hierarchical" or not kinds or not set(kinds) <= set(ACTION_KINDS):
+                raise ValueError(
+                    f"teacher_label_kinds must be 'all' or comma-separated kinds of {ACTION_KINDS} with the "
+                    f"hierarchical teacher, got {self.teacher_label_kinds!r} (teacher {self.imitation_teacher!r})"
+                )
+        if self.promotion == "hybrid" and not self.heatmap:
+            raise ValueError("promotion='hybrid' needs the heat-map head (the hybrid planner uses it); use 'learner'")
 
     def to_dict(self) -> dict:
         return asdict(self)

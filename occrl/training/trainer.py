@@ -38,7 +38,7 @@ from occrl.planners import HybridPlanner
 from occrl.modules.weights import load_weights, save_weights
 from occrl.training.checkpoint import load_checkpoint, save_checkpoint
 from occrl.training.collection import TrainingCollector
-from occrl.training.config import SETTING_CHOICES, TrainConfig, training_device
+from occrl.training.config import TrainConfig, training_device
 from occrl.training.cpu_time import tree_cpu_seconds
 from occrl.training.curriculum import Curriculum
 from occrl.training.dagger import (
@@ -118,62 +118,8 @@ class Trainer:
         init_weights: str | Path | None = None,
         promotion_check: Callable[..., float] = hybrid_validation_success,
     ) -> None:
-        for name, allowed in SETTING_CHOICES.items():  # every string setting with a fixed set of values
-            if getattr(config, name) not in allowed:
-                raise ValueError(f"{name} must be one of {allowed}, got {getattr(config, name)!r}")
-        if config.promotion_eval_tasks < 1:
-            raise ValueError(f"promotion_eval_tasks must be >= 1, got {config.promotion_eval_tasks}")
-        if config.replay_stage_workers < 0:
-            raise ValueError(f"replay_stage_workers must be >= 0, got {config.replay_stage_workers}")
-        if config.replay_stage_workers and (config.collector == "single" or config.replay_stage_workers >= config.workers):
-            raise ValueError(
-                f"replay_stage_workers={config.replay_stage_workers} needs collector 'multi' or 'ray' and "
-                f"fewer than workers={config.workers} (got collector {config.collector!r})"
-            )
-        if config.retrieval_labels != "planner" and config.imitation_teacher != "hybrid-acting":
-            raise ValueError(f"retrieval_labels applies to imitation_teacher 'hybrid-acting', not {config.imitation_teacher!r}")
-        if not 0.0 <= config.retrieval_takeover <= 1.0:
-            raise ValueError(f"retrieval_takeover must be a share in [0, 1], got {config.retrieval_takeover!r}")
-        if config.retrieval_takeover > 0 and config.imitation_teacher != "hybrid-acting":
-            raise ValueError(f"retrieval_takeover applies to imitation_teacher 'hybrid-acting', not {config.imitation_teacher!r}")
-        if (config.takeover_retriever, config.takeover_at) != ("scripted", "first-sight") and config.retrieval_takeover == 0:
-            raise ValueError(
-                f"takeover_retriever {config.takeover_retriever!r} / takeover_at {config.takeover_at!r} need retrieval_takeover > 0 (the share taken over)"
-            )
-        if config.label_episodes != "all" and config.imitation_teacher not in ("self", "hybrid-acting"):
-            raise ValueError(
-                f"label_episodes={config.label_episodes!r} applies to the teachers whose labels are the actions taken "
-                f"('self', 'hybrid-acting'), not {config.imitation_teacher!r}"
-            )
-        if config.imitation_teacher == "self" and config.label_episodes != "success":
-            raise ValueError(
-                "imitation_teacher='self' needs label_episodes='success': the learner's own actions of every "
-                "episode as labels teach nothing (their expected gradient is zero)"
-            )
-        if config.teacher_weights and config.imitation_teacher != "hybrid-acting":
-            raise ValueError(f"teacher_weights applies to imitation_teacher 'hybrid-acting', not {config.imitation_teacher!r}")
-        if config.imitation_teacher in ("hybrid", "hybrid-acting") and not config.heatmap and not config.teacher_weights:
-            raise ValueError(
-                f"imitation_teacher={config.imitation_teacher!r} needs the heat-map head (the hybrid planner uses it), "
-                "or, for 'hybrid-acting', teacher_weights naming a fixed network with one to plan with"
-            )
+        config.validate()
         teacher_net = self._teacher_net(config.teacher_weights) if config.teacher_weights else None
-        if config.imitation_teacher in ("hybrid-acting", "hierarchical", "clearing-observed") and config.collector != "single":
-            raise ValueError(
-                f"imitation_teacher={config.imitation_teacher!r} needs collector 'single' (the teacher's network "
-                f"or episode memory lives in this process), got collector {config.collector!r}"
-            )
-        if config.teacher_label_kinds != "all":
-            from occrl.baselines.hierarchical import ACTION_KINDS
-
-            kinds = config.teacher_label_kinds.split(",")
-            if config.imitation_teacher != "hierarchical" or not kinds or not set(kinds) <= set(ACTION_KINDS):
-                raise ValueError(
-                    f"teacher_label_kinds must be 'all' or comma-separated kinds of {ACTION_KINDS} with the "
-                    f"hierarchical teacher, got {config.teacher_label_kinds!r} (teacher {config.imitation_teacher!r})"
-                )
-        if config.promotion == "hybrid" and not config.heatmap:
-            raise ValueError("promotion='hybrid' needs the heat-map head (the hybrid planner uses it); use 'learner'")
         self.config = config
         self.promotion_check = promotion_check
         self.ray_address = ray_address  # where the "ray" collector runs (None: a local Ray runtime)
