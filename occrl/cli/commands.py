@@ -170,7 +170,7 @@ def _stop_ray_if_used(args: argparse.Namespace) -> None:
 
 
 def run_eval(args: argparse.Namespace) -> int:
-    from occrl.eval.methods import METHODS, PLANNERS, PRIVILEGED, method_network
+    from occrl.eval.methods import METHODS, PRIVILEGED, is_method, is_planner, method_network
     from occrl.envs.episodes import EPISODE_TIMING
     from occrl.eval.runner import run_tasks, summarize
 
@@ -211,9 +211,9 @@ def run_eval(args: argparse.Namespace) -> int:
             return 2
 
         methods = args.methods.split(",") if args.methods else [m for m in METHODS if m not in PRIVILEGED]
-        unknown = [m for m in methods if m not in METHODS]
+        unknown = [m for m in methods if not is_method(m)]
         if unknown:
-            print(f"unknown method(s) {unknown}; available: {METHODS}", file=sys.stderr)
+            print(f"unknown method(s) {unknown}; available: {METHODS} (or any hybrid-MxH / hybrid-lim-MxH)", file=sys.stderr)
             return 2
         try:
             out = run_sweep(
@@ -244,12 +244,12 @@ def run_eval(args: argparse.Namespace) -> int:
         return 2
     stage = 1 if args.stage is None else args.stage
 
-    if args.method not in METHODS:
-        print(f"unknown method {args.method!r}; available: {METHODS}", file=sys.stderr)
+    if not is_method(args.method):
+        print(f"unknown method {args.method!r}; available: {METHODS} (or any hybrid-MxH / hybrid-lim-MxH)", file=sys.stderr)
         return 2
     seeds = list(range(args.seed, args.seed + args.tasks))
     objects = parse_objects(args.objects)
-    batch = 1 if args.method in PLANNERS else args.batch  # planners: one world per task, exact per-task time
+    batch = 1 if is_planner(args.method) else args.batch  # planners: one world per task, exact per-task time
     if args.world == "mujoco":
         batch = 1  # one MuJoCo world per task: per-task time is exact and memory stays small
     try:

@@ -3,6 +3,7 @@ transforms it needs (e.g. the LSTM's recurrent-state primer)."""
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -10,7 +11,17 @@ from torchrl.envs.utils import ExplorationType
 
 from occrl.envs.robot_frame import DEFAULT_SIZE
 
-__all__ = ["Method", "make_method", "default_network", "method_network", "METHODS", "PRIVILEGED"]
+__all__ = [
+    "Method",
+    "make_method",
+    "default_network",
+    "method_network",
+    "hybrid_setting",
+    "is_method",
+    "is_planner",
+    "METHODS",
+    "PRIVILEGED",
+]
 
 METHODS = [
     "hybrid-2x2",
@@ -28,7 +39,33 @@ METHODS = [
 PRIVILEGED = ("scripted", "clearing")
 # planners run one world per task (their per-task planning time is measured exactly)
 PLANNERS = {"hybrid-2x2", "hybrid-4x4", "hybrid-6x6", "hybrid-lim-4x4", "hierarchical"}
-_HYBRID = {"hybrid-2x2": (2, 2, False), "hybrid-4x4": (4, 4, False), "hybrid-6x6": (6, 6, False), "hybrid-lim-4x4": (4, 4, True)}
+# the papers' hybrid planners are named hybrid-MxH (m roll-outs of depth h per root) and
+# hybrid-lim-MxH (the most likely root only); any m, h >= 1 is accepted beyond the listed four
+_HYBRID_NAME = re.compile(r"hybrid-(lim-)?([1-9][0-9]*)x([1-9][0-9]*)")
+
+
+def hybrid_setting(name: str) -> tuple[int, int, bool] | None:
+    """``(m, h, limited)`` of a hybrid planner's name, None for any other name.
+
+    Examples:
+        >>> from occrl.eval.methods import hybrid_setting
+        >>> hybrid_setting("hybrid-4x4"), hybrid_setting("hybrid-lim-2x3"), hybrid_setting("hybrid-0x4")
+        ((4, 4, False), (2, 3, True), None)
+    """
+    match = _HYBRID_NAME.fullmatch(name)
+    if match is None:
+        return None
+    return int(match.group(2)), int(match.group(3)), match.group(1) is not None
+
+
+def is_method(name: str) -> bool:
+    """Whether :func:`make_method` knows ``name``: one of :data:`METHODS` or any hybrid-MxH."""
+    return name in METHODS or hybrid_setting(name) is not None
+
+
+def is_planner(name: str) -> bool:
+    """Whether a method plans (one world per task when evaluated, so its time per task is exact)."""
+    return name in PLANNERS or hybrid_setting(name) is not None
 
 
 @dataclass
@@ -68,7 +105,7 @@ def default_network(name: str) -> str | None:
         >>> default_network("hybrid-4x4"), default_network("greedy"), default_network("hierarchical")
         ('occnet', 'occnet-noheatmap', None)
     """
-    if name in _HYBRID or name == "stochastic-gen":
+    if hybrid_setting(name) is not None or name == "stochastic-gen":
         return "occnet"
     return "occnet-noheatmap" if name in ("greedy", "stochastic") else None
 
@@ -111,7 +148,7 @@ def _network_record(default: str, weights: str | Path | None) -> str:
 def make_method(
     name: str, weights: str | Path | None = None, seed: int = 0, rollout_min_scale: float = 0.0, inference: str = "torch"
 ) -> Method:
-    """``hybrid-MxH`` / ``hybrid-lim-4x4`` (planner on the full net), ``greedy`` / ``stochastic``
+    """``hybrid-MxH`` / ``hybrid-lim-MxH`` (planner on the full net; the papers' are 2x2, 4x4, 6x6 and lim-4x4), ``greedy`` / ``stochastic``
     (net without heat-map head: mean / sampled action), ``stochastic-gen`` (full net, sampled),
     ``hierarchical`` (Alg. 3 with OMPL; literal Search), ``scripted`` and ``clearing`` (privileged). ``weights``
     overrides the shipped net. ``rollout_min_scale`` floors the spread of the hybrid planners'
@@ -126,16 +163,17 @@ def make_method(
         >>> make_method("random")  # doctest: +ELLIPSIS
         Traceback (most recent call last):
             ...
-        ValueError: unknown method 'random'; available: ['hybrid-2x2', ..., 'clearing']
+        ValueError: unknown method 'random'; available: ['hybrid-2x2', ..., 'clearing'] (or any hybrid-MxH / hybrid-lim-MxH, m and h >= 1)
     """
-    if rollout_min_scale and name not in _HYBRID:
+    hybrid = hybrid_setting(name)
+    if rollout_min_scale and hybrid is None:
         raise ValueError(f"rollout_min_scale is a hybrid planner setting; {name!r} does not take it")
-    if inference != "torch" and name not in _HYBRID:
+    if inference != "torch" and hybrid is None:
         raise ValueError(f"inference is a hybrid planner setting; {name!r} does not take it")
-    if name in _HYBRID:
+    if hybrid is not None:
         from occrl.planners import HybridPlanner
 
-        m, h, limited = _HYBRID[name]
+        m, h, limited = hybrid
         net = _net("occnet", weights)
         return Method(
             name,
@@ -170,4 +208,4 @@ def make_method(
             network=_network_record(net_name, weights),
             image_size=net.config.image_size,
         )
-    raise ValueError(f"unknown method {name!r}; available: {METHODS}")
+    raise ValueError(f"unknown method {name!r}; available: {METHODS} (or any hybrid-MxH / hybrid-lim-MxH, m and h >= 1)")

@@ -120,7 +120,7 @@ def run_sweep(
         >>> sorted(os.listdir(out)), os.listdir(out / "points")
         (['points', 'results.csv', 'results.json', 'sweep.png'], ['scripted__clutter__1.json'])
     """
-    from occrl.eval.methods import PLANNERS, method_network
+    from occrl.eval.methods import is_planner, method_network
 
     if tasks < 1 or (chunk is not None and chunk < 1):
         raise ValueError(f"tasks and chunk must be >= 1, got tasks={tasks}, chunk={chunk}")
@@ -153,7 +153,7 @@ def run_sweep(
             missing = [s for s in seeds if s not in done]
             if not missing:
                 continue
-            b = 1 if method in PLANNERS else batch
+            b = 1 if is_planner(method) else batch
             bar.set_postfix_str(f"{method} {sweep}={value:g}, tasks up to {upto}")
             for r in _run_point(
                 method,

@@ -16,6 +16,16 @@ def test_eval_writes_json(tmp_path, capsys):
     assert "mean time per task" in capsys.readouterr().out
 
 
+def test_eval_runs_any_hybrid_mxh(tmp_path, capsys):
+    # beyond the papers' four: hybrid-1x1 plans one roll-out of one step per root, one world per task
+    out = tmp_path / "r.json"
+    assert main(["eval", "--method", "hybrid-1x1", "--tasks", "2", "--batch", "2", "--out", str(out), "--no-progress"]) == 0
+    data = json.loads(out.read_text())
+    assert (data["method"], data["tasks"], data["batch"], data["network"]) == ("hybrid-1x1", 2, 1, "occnet-takeover")
+    assert main(["eval", "--method", "hybrid-0x4", "--tasks", "1"]) == 2
+    assert "any hybrid-MxH" in capsys.readouterr().err
+
+
 def test_bad_input_is_an_error_message_not_a_traceback(tmp_path, capsys):
     assert main(["eval", "--method", "telepathy", "--tasks", "1"]) == 2
     assert "unknown method" in capsys.readouterr().err
