@@ -30,7 +30,7 @@ import torch
 from tqdm import tqdm
 
 from occrl.envs.episodes import run_episodes, task_scenes
-from occrl.eval.methods import METHODS, make_method, method_network
+from occrl.eval.methods import METHODS, is_method, make_method, method_network
 from occrl.eval.runner import EVAL_SEED_BASE
 from occrl.eval.sweep import SCENE_STAGE, point_episodes, sweep_points
 
@@ -153,9 +153,9 @@ def main() -> None:
         print(table(json.loads(args.table.read_text())))
         return
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
-    unknown = [m for m in methods if m not in METHODS]
+    unknown = [m for m in methods if not is_method(m)]
     if unknown:
-        parser.error(f"unknown method(s) {unknown}; allowed: {', '.join(METHODS)}")
+        parser.error(f"unknown method(s) {unknown}; allowed: {', '.join(METHODS)} (or any hybrid-MxH)")
     objects = [int(n) for n in args.objects.split(",")]
     if args.tasks < 1 or not all(1 <= n <= 10 for n in objects):
         parser.error(f"--tasks must be >= 1 and --objects within 1-10, got {args.tasks} and {objects}")
