@@ -32,8 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
-from occrl.envs import world_constants as C
 from occrl.envs.pymunk2d.world import grasp_candidate
+from occrl.envs.visibility import in_field_of_view
 from occrl.eval.methods import make_method
 from occrl.eval.runner import EVAL_SEED_BASE, rollout_tasks
 from occrl.planners import make_world, recreate
@@ -54,11 +54,9 @@ def blocking_objects(td, t: int, truth) -> list[dict]:
         if i == truth.target_index:
             continue
         slot = int(slots[i])
-        centre = truth.object_poses()[i, :2]
-        bearing = np.arctan2(centre[1] - gripper[1], centre[0] - gripper[0]) - (gripper[2] + np.pi / 2)
         out.append(
             {
-                "in_view": bool(abs((bearing + np.pi) % (2 * np.pi) - np.pi) <= C.CAMERA_FOV / 2),
+                "in_view": bool(in_field_of_view(truth.object_poses()[i, :2], gripper)),
                 "visible_fraction": float(obs["privileged", "visible_fraction"][slot]),
                 "detected_before": bool(td["objects", "detected"][0, : t + 1, slot].any()),
             }

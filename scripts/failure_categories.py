@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from occrl.envs import world_constants as C
+from occrl.envs.visibility import in_field_of_view
 from occrl.eval.methods import make_method
 from occrl.eval.runner import rollout_tasks
 from occrl.pretrained import weights_file
@@ -50,8 +51,7 @@ def categorise(td) -> dict:
     # along its +y axis), occluded or not
     gripper = td["gripper_pose"][0].numpy().astype(float)
     target = td["privileged", "target_pose"][0].numpy().astype(float)
-    bearing = np.arctan2(target[:, 1] - gripper[:, 1], target[:, 0] - gripper[:, 0]) - (gripper[:, 2] + np.pi / 2)
-    in_view = np.abs((bearing + np.pi) % (2 * np.pi) - np.pi) <= C.CAMERA_FOV / 2
+    in_view = in_field_of_view(target[:, :2], gripper)
     # the target's centre in the gripper frame, against the point midway along the fingers
     dx, dy = target[:, 0] - gripper[:, 0], target[:, 1] - gripper[:, 1]
     c, s = np.cos(gripper[:, 2]), np.sin(gripper[:, 2])

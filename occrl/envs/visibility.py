@@ -21,7 +21,7 @@ import numpy as np
 from occrl.envs import world_constants as C
 from occrl.envs.geometry import next_vertices
 
-__all__ = ["visible_fractions", "visible_fractions_batch", "detect", "camera_pose", "angular_extents", "pad_polygons"]
+__all__ = ["visible_fractions", "visible_fractions_batch", "detect", "camera_pose", "angular_extents", "pad_polygons", "in_field_of_view"]
 
 
 def camera_pose(gripper_pose: np.ndarray) -> np.ndarray:
@@ -33,6 +33,22 @@ def camera_pose(gripper_pose: np.ndarray) -> np.ndarray:
         [0.0, -0.1, 0.0]
     """
     return np.asarray(gripper_pose, dtype=float)
+
+
+def in_field_of_view(points: np.ndarray, gripper_poses: np.ndarray, fov: float = C.CAMERA_FOV) -> np.ndarray:
+    """Whether each point lies within the camera's horizontal field of view, occlusion aside
+    (analysis: e.g. whether a target's centre was ever in view). ``points`` (..., 2) and
+    ``gripper_poses`` (..., 3) broadcast together.
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.visibility import in_field_of_view
+        >>> in_field_of_view(np.array([[0.0, 0.2], [0.2, 0.0]]), np.zeros(3)).tolist()  # ahead; beside
+        [True, False]
+    """
+    points, cam = np.asarray(points, dtype=float), camera_pose(gripper_poses)
+    bearing = np.arctan2(points[..., 1] - cam[..., 1], points[..., 0] - cam[..., 0]) - (cam[..., 2] + np.pi / 2)
+    return np.abs((bearing + np.pi) % (2 * np.pi) - np.pi) <= fov / 2
 
 
 def pad_polygons(polygons: Sequence[np.ndarray], size: int | None = None) -> np.ndarray:
