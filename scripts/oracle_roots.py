@@ -95,15 +95,14 @@ class OracleRootsPlanner(HybridPlanner):
         return super().decide(obs, heatmap, hidden)
 
     def roots(self, obs: TensorDictBase, heatmap: np.ndarray) -> list[Root]:
+        if self.which == "state":
+            return [Root(true_state(obs), 1.0)]
         state = recreate(obs)
+        if state.target_detected:
+            return [Root(state, 1.0)]
         priv = obs.get("privileged")
         slot = int(priv.get("target_slot").reshape(-1)[0])
-        poses = priv.get("object_pose").cpu().numpy().astype(float)
-        if self.which == "target":
-            if state.target_detected:
-                return [Root(state, 1.0)]
-            return [Root(with_target(state, tuple(poses[slot])), 1.0)]
-        return [Root(true_state(obs), 1.0)]
+        return [Root(with_target(state, tuple(priv.get("object_pose")[slot].cpu().numpy().astype(float))), 1.0)]
 
 
 def main() -> None:
