@@ -37,8 +37,6 @@ METHODS = [
 ]
 # read the true state (not methods of the paper; left out of sweeps unless named)
 PRIVILEGED = ("scripted", "clearing")
-# planners run one world per task (their per-task planning time is measured exactly)
-PLANNERS = {"hybrid-2x2", "hybrid-4x4", "hybrid-6x6", "hybrid-lim-4x4", "hierarchical"}
 # the papers' hybrid planners are named hybrid-MxH (m roll-outs of depth h per root) and
 # hybrid-lim-MxH (the most likely root only); any m, h >= 1 is accepted beyond the listed four
 _HYBRID_NAME = re.compile(r"hybrid-(lim-)?([1-9][0-9]*)x([1-9][0-9]*)")
@@ -64,8 +62,9 @@ def is_method(name: str) -> bool:
 
 
 def is_planner(name: str) -> bool:
-    """Whether a method plans (one world per task when evaluated, so its time per task is exact)."""
-    return name in PLANNERS or hybrid_setting(name) is not None
+    """Whether a method plans: the hierarchical planner and every hybrid-MxH. Planners run one world
+    per task when evaluated, so their time per task is measured exactly."""
+    return name == "hierarchical" or hybrid_setting(name) is not None
 
 
 @dataclass
