@@ -102,7 +102,7 @@ def main() -> None:
     outside = []
     never_in_view = 0
     for seed in failed:
-        facts = categorise(rollout_tasks(method, d["stage"], [seed], d["noise"]))
+        facts = categorise(rollout_tasks(method, d["stage"], [seed], d["noise"], replicate=d.get("replicate", 0)))
         counts[facts["category"]] += 1
         outside.append(facts["outside_share"])
         never_in_view += facts["category"] == "never detected" and not facts["ever_in_view"]

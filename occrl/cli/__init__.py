@@ -15,7 +15,7 @@ import sys
 
 from occrl import __version__
 from occrl.cli.commands import run_bench, run_demo, run_eval, run_export, run_train
-from occrl.cli.options import COUNT, NOISE, POSITIVE, SCALE, SEED, add_train_settings
+from occrl.cli.options import COUNT, NOISE, NON_NEGATIVE, POSITIVE, SCALE, SEED, add_train_settings
 
 __all__ = ["main", "make_parser"]
 
@@ -128,6 +128,14 @@ def make_parser() -> argparse.ArgumentParser:
         default="torch",
         help="hybrid planners: how the roll-outs call the network (onnxruntime: several times faster per call, equal to float "
         "rounding, so a few decisions may differ; pip install onnx onnxruntime)",
+    )
+    e.add_argument(
+        "--replicate",
+        type=NON_NEGATIVE,
+        default=0,
+        help="run replicate N of each task: the same shelves and execution noise, the decision maker's own randomness "
+        "(policy samples, planner roll-outs) drawn anew (default 0: what every recorded result ran); repeat with N = 1, 2, ... "
+        "to see how much a result varies with that randomness alone",
     )
     e.add_argument("--out", default=None, help="write the results as JSON")
     e.add_argument(

@@ -194,6 +194,12 @@ def run_eval(args: argparse.Namespace) -> int:
                 file=sys.stderr,
             )
             return 2
+    if args.replicate and args.sweep:
+        print(
+            "--replicate applies to a single method (--method M), not to a sweep (its points extend by task, not by replicate)",
+            file=sys.stderr,
+        )
+        return 2
     if args.sweep:
         from occrl.eval.sweep import run_sweep
 
@@ -268,6 +274,7 @@ def run_eval(args: argparse.Namespace) -> int:
             world=args.world,
             rollout_min_scale=args.rollout_min_scale,
             inference=args.inference,
+            replicate=args.replicate,
         )
     finally:
         _stop_ray_if_used(args)
@@ -281,6 +288,7 @@ def run_eval(args: argparse.Namespace) -> int:
         "first_seed": args.seed,
         **({"rollout_min_scale": args.rollout_min_scale} if args.rollout_min_scale else {}),
         **({"inference": args.inference} if args.inference != "torch" else {}),
+        **({"replicate": args.replicate} if args.replicate else {}),
         # times per task: each task's own episode (occrl >= 0.3.0), with `batch` tasks run at a time
         "timing": EPISODE_TIMING,
         "batch": batch,
@@ -292,7 +300,9 @@ def run_eval(args: argparse.Namespace) -> int:
         print(
             f"{args.method}: {args.world} world, stage {stage}, objects {args.objects or 'of the stage'}, noise {args.noise}, {summary['tasks']} tasks: success {summary['success_rate']:.1%} "
             f"(95% CI {lo:.1%}-{hi:.1%}), dropped {summary['dropped']}, mean actions {summary['mean_actions']:.1f}, "
-            f"mean time per task {summary['mean_seconds']:.2f} s" + (f" ({batch} tasks at a time)" if batch > 1 else "")
+            f"mean time per task {summary['mean_seconds']:.2f} s"
+            + (f" ({batch} tasks at a time)" if batch > 1 else "")
+            + (f", replicate {args.replicate}" if args.replicate else "")
         )
     else:
         print(_summary_table(summary, args.format))

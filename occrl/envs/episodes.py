@@ -27,6 +27,7 @@ __all__ = [
     "EpisodeResult",
     "task_scenes",
     "task_object_count",
+    "decision_seed",
     "seeded_task_env",
     "episode_end",
     "run_episodes",
@@ -100,6 +101,30 @@ def task_scenes(stage: int, seeds: Sequence[int], num_objects: int | tuple[int, 
     return [Scene.sample(stage, seed=int(s), num_objects=num_objects) for s in seeds]
 
 
+def decision_seed(task_seed: int, replicate: int = 0) -> int:
+    """The seed of the decision maker's randomness in replicate ``replicate`` of a task: the task
+    seed itself for replicate 0 (every recorded result), a seed drawn from (task seed, replicate)
+    for the others. Replicates run the same shelf with the same execution noise; only the
+    decision maker's own draws (a stochastic policy's actions, a planner's roll-outs) differ.
+
+    Examples:
+        >>> from occrl.envs.episodes import decision_seed
+        >>> decision_seed(10_000_000), decision_seed(10_000_000, 1) == decision_seed(10_000_000, 1)
+        (10000000, True)
+        >>> len({decision_seed(7, r) for r in range(4)})
+        4
+        >>> decision_seed(7, -1)
+        Traceback (most recent call last):
+            ...
+        ValueError: replicate must be an integer >= 0, got -1
+    """
+    if isinstance(replicate, bool) or not isinstance(replicate, (int, np.integer)) or replicate < 0:
+        raise ValueError(f"replicate must be an integer >= 0, got {replicate!r}")
+    if replicate == 0:
+        return int(task_seed)
+    return int(np.random.SeedSequence([int(task_seed), int(replicate)]).generate_state(1)[0])
+
+
 def seeded_task_env(
     policy: Callable,
     scenes: Sequence[Scene],
@@ -109,6 +134,7 @@ def seeded_task_env(
     heatmap_target: bool = False,
     world: str = "pymunk",
     size: int = DEFAULT_SIZE,
+    replicate: int = 0,
 ):
     """The env of a batch of tasks, with the env and the decision maker seeded by the task seeds:
     what :func:`run_episodes` runs, and what a replay of one of its episodes must build.
@@ -116,7 +142,8 @@ def seeded_task_env(
     Each world's execution noise follows its own task seed; the decision maker's randomness too
     where it can (``reseed_worlds``, e.g. :class:`~occrl.baselines.NetPolicy`), else the batch's
     first seed (``reseed``, e.g. the planners, run one task per batch). Either way results do not
-    depend on how tasks are spread over processes.
+    depend on how tasks are spread over processes. ``replicate`` > 0 seeds the decision maker by
+    :func:`decision_seed` instead (the env keeps the task seeds).
 
     Examples:
         >>> from occrl.baselines import ScriptedRetriever
@@ -136,11 +163,12 @@ def seeded_task_env(
     )
     for p in primers:
         env.append_transform(p.clone() if hasattr(p, "clone") else p)
-    torch.manual_seed(int(seeds[0]))
+    decision_seeds = [decision_seed(s, replicate) for s in seeds]
+    torch.manual_seed(decision_seeds[0])
     if hasattr(policy, "reseed_worlds"):
-        policy.reseed_worlds([int(s) for s in seeds])
+        policy.reseed_worlds(decision_seeds)
     elif hasattr(policy, "reseed"):
-        policy.reseed(int(seeds[0]))
+        policy.reseed(decision_seeds[0])
     return env
 
 
@@ -169,8 +197,10 @@ def run_episodes(
     heatmap_target: bool = False,
     world: str = "pymunk",
     size: int = DEFAULT_SIZE,
+    replicate: int = 0,
 ) -> list[EpisodeResult]:
-    """Run ``policy`` once on each scene (batches of ``batch_size`` worlds stepped together).
+    """Run ``policy`` once on each scene (batches of ``batch_size`` worlds stepped together);
+    ``replicate`` > 0 draws the decision maker's randomness anew (:func:`decision_seed`).
 
     Success requires retrieval in under 50 actions and under 2 minutes, with nothing dropped.
     The batch stops when each of its worlds has ended its episode (a world that ended is not
@@ -189,7 +219,7 @@ def run_episodes(
     for start in range(0, len(scenes), batch_size):
         chunk = list(scenes[start : start + batch_size])
         chunk_seeds = list(seeds[start : start + batch_size])
-        env = seeded_task_env(policy, chunk, chunk_seeds, noise, primers, heatmap_target, world, size)
+        env = seeded_task_env(policy, chunk, chunk_seeds, noise, primers, heatmap_target, world, size, replicate)
         t = time.time()
         with torch.no_grad(), set_exploration_type(exploration):
             td = env.rollout(C.MAX_EPISODE_STEPS, policy, break_when_any_done=False, break_when_all_done=True)

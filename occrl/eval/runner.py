@@ -18,7 +18,7 @@ from tensordict import TensorDictBase
 from torchrl.envs.utils import set_exploration_type
 
 from occrl.envs import world_constants as C
-from occrl.envs.episodes import EpisodeResult, run_episodes, seeded_task_env, task_scenes
+from occrl.envs.episodes import EpisodeResult, decision_seed, run_episodes, seeded_task_env, task_scenes
 
 # EpisodeResult, run_episodes, task_scenes, seeded_task_env live in occrl.envs.episodes (importable here too)
 __all__ = ["rollout_tasks", "run_tasks", "summarize", "wilson_interval", "mcnemar_p", "exclusive_wins", "EVAL_SEED_BASE"]
@@ -103,10 +103,13 @@ def paired_with(episodes: Sequence[dict], baseline: Sequence[dict]) -> dict:
     }
 
 
-def rollout_tasks(method, stage: int, seeds: Sequence[int], noise: float = 0.0, steps: int = C.MAX_EPISODE_STEPS) -> TensorDictBase:
+def rollout_tasks(
+    method, stage: int, seeds: Sequence[int], noise: float = 0.0, steps: int = C.MAX_EPISODE_STEPS, replicate: int = 0
+) -> TensorDictBase:
     """One batch of ``method`` (a :class:`~occrl.eval.methods.Method`) on the stage's tasks of
     ``seeds``, with the full [len(seeds), steps] rollout (privileged keys included) for analysis;
-    the same episodes :func:`run_episodes` scores. A world that finishes starts a new episode.
+    the same episodes :func:`run_episodes` scores (with the same ``replicate``). A world that
+    finishes starts a new episode.
 
     Examples:
         >>> from occrl.eval.methods import make_method
@@ -115,7 +118,9 @@ def rollout_tasks(method, stage: int, seeds: Sequence[int], noise: float = 0.0, 
         >>> td.batch_size, ("privileged", "target_pose") in td.keys(True)
         (torch.Size([2, 5]), True)
     """
-    env = seeded_task_env(method.policy, task_scenes(stage, seeds), seeds, noise, method.primers, size=method.image_size)
+    env = seeded_task_env(
+        method.policy, task_scenes(stage, seeds), seeds, noise, method.primers, size=method.image_size, replicate=replicate
+    )
     with torch.no_grad(), set_exploration_type(method.exploration):
         return env.rollout(steps, method.policy, break_when_any_done=False)
 
@@ -157,10 +162,19 @@ def _init_worker(method: str, weights, threads: int, rollout_min_scale: float = 
 
 
 def _run_chunk(args) -> list[EpisodeResult]:
-    stage, seeds, num_objects, noise, world = args
+    stage, seeds, num_objects, noise, world, replicate = args
     m = _WORKER["method"]
     return run_episodes(
-        m.policy, task_scenes(stage, seeds, num_objects), seeds, noise, len(seeds), m.primers, m.exploration, world=world, size=m.image_size
+        m.policy,
+        task_scenes(stage, seeds, num_objects),
+        seeds,
+        noise,
+        len(seeds),
+        m.primers,
+        m.exploration,
+        world=world,
+        size=m.image_size,
+        replicate=replicate,
     )
 
 
@@ -246,6 +260,7 @@ def run_tasks(
     world: str = "pymunk",
     rollout_min_scale: float = 0.0,
     inference: str = "torch",
+    replicate: int = 0,
 ) -> list[EpisodeResult]:
     """Evaluate a named method on task seeds, in chunks of ``batch`` worlds spread over
     ``workers`` processes (``backend="local"``) or Ray actors (``backend="ray"``, a local runtime
@@ -253,7 +268,9 @@ def run_tasks(
     (per-task wall time aside). ``world="mujoco"`` executes in the 3D MuJoCo env (the planners
     still plan in pymunk, recreated from its detections); ``num_objects=(low, high)`` draws each
     task's object count from its seed. ``rollout_min_scale`` and ``inference`` go to the hybrid
-    planners (:func:`~occrl.eval.methods.make_method`). ``progress``: show a progress bar with an ETA
+    planners (:func:`~occrl.eval.methods.make_method`). ``replicate`` > 0 runs the same tasks with
+    the decision maker's randomness drawn anew (:func:`~occrl.envs.episodes.decision_seed`; 0 is
+    what every recorded result ran). ``progress``: show a progress bar with an ETA
     (``True``), none (``False``), or advance a ``tqdm`` bar the caller owns (a sweep's).
 
     Examples:
@@ -270,7 +287,8 @@ def run_tasks(
     own_bar = not hasattr(progress, "update")
     bar = tqdm(total=len(seeds), desc=f"{method} stage {stage} noise {noise}", unit="task", disable=not progress) if own_bar else progress
     results: list[list[EpisodeResult]] = [None] * len(chunks)
-    jobs = [(stage, c, num_objects, noise, world) for c in chunks]
+    decision_seed(0, replicate)  # a bad replicate fails here, before any work
+    jobs = [(stage, c, num_objects, noise, world, replicate) for c in chunks]
     if backend == "ray":
         results = _run_tasks_ray(
             method, weights, jobs, max(1, workers), ray_address, bar, rollout_min_scale=rollout_min_scale, inference=inference

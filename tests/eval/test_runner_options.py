@@ -44,3 +44,36 @@ def test_mujoco_frames_show_the_gripper_camera():
     td = make_env(batch_size=1, stage=1, seed=0, heatmap_target=False, world="mujoco", record_camera=True).reset()[0]
     assert td["camera_rgb"].shape[0] == 3 and int(td["camera_rgb"].max()) > 0
     assert frame(td).shape[1] > frame(plain).shape[1] + 200  # a third panel: the camera image
+
+
+def test_a_replicate_draws_the_decision_makers_randomness_anew_on_the_same_tasks():
+    seeds = SEEDS[:6]
+    default = run_tasks("stochastic", 2, seeds, batch=6, progress=False)
+    assert [r.to_dict() | {"seconds": 0} for r in run_tasks("stochastic", 2, seeds, batch=6, progress=False, replicate=0)] == [
+        r.to_dict() | {"seconds": 0} for r in default
+    ]  # replicate 0 is what every recorded result ran
+    first = run_tasks("stochastic", 2, seeds, batch=6, progress=False, replicate=1)
+    again = run_tasks("stochastic", 2, seeds, batch=6, progress=False, replicate=1)
+    assert [(r.seed, r.objects) for r in first] == [(r.seed, r.objects) for r in default]  # the same shelves
+    assert [(r.success, r.actions) for r in first] == [(r.success, r.actions) for r in again]  # a replicate is reproducible
+    assert [(r.success, r.actions) for r in first] != [(r.success, r.actions) for r in default]  # with other policy samples
+    # a deterministic decision maker does the same on every replicate
+    assert [r.actions for r in run_tasks("greedy", 2, seeds[:2], batch=2, progress=False, replicate=3)] == [
+        r.actions for r in run_tasks("greedy", 2, seeds[:2], batch=2, progress=False)
+    ]
+    with pytest.raises(ValueError, match="replicate must be an integer >= 0"):
+        run_tasks("stochastic", 2, seeds, progress=False, replicate=-2)
+
+
+def test_eval_records_the_replicate_and_refuses_it_for_a_sweep(tmp_path, capsys):
+    import json
+
+    out = tmp_path / "r.json"
+    assert (
+        main(["eval", "--method", "scripted", "--stage", "1", "--tasks", "2", "--replicate", "2", "--out", str(out), "--no-progress"]) == 0
+    )
+    assert json.loads(out.read_text())["replicate"] == 2 and "replicate 2" in capsys.readouterr().out
+    assert main(["eval", "--method", "scripted", "--tasks", "1", "--out", str(out), "--no-progress"]) == 0
+    assert "replicate" not in json.loads(out.read_text())  # replicate 0: the files as before
+    assert main(["eval", "--sweep", "--replicate", "1", "--tasks", "1", "--no-progress"]) == 2
+    assert "--replicate applies to a single method" in capsys.readouterr().err

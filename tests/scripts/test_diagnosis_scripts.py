@@ -254,3 +254,27 @@ def test_sweep_compare_counts_the_tasks_each_folder_alone_solved(tmp_path):
     # the committed hierarchical sweeps: noise 0.15 costs 23 tasks at 1-5 objects and 47 at 6-10 (docs/experiments.md)
     out = _run("scripts/sweep_compare.py", "results/sweep-physics2", "results/sweep-physics2-clutter-n015", "--method", "hierarchical")
     assert "| 1-5 | 500 | 498 / 475 | 23 / 0 |" in out and "| 6-10 | 500 | 444 / 398 | 47 / 1 |" in out
+
+
+def test_planner_vs_policy_pairs_each_network_and_fits_the_line(tmp_path):
+    sys.path.insert(0, str(ROOT / "scripts"))
+    try:
+        import planner_vs_policy as pvp
+    finally:
+        sys.path.remove(str(ROOT / "scripts"))
+    rows = pvp.pairs()
+    assert len(rows) == len(pvp.NETWORKS)
+    s = pvp.summary(rows)
+    # the fitted line goes through the points: its residuals sum to zero
+    residual = sum(p["success_rate"] - (s["slope"] * o["success_rate"] + s["intercept"]) for _, o, p in rows)
+    assert abs(residual) < 1e-9 and -1 <= s["correlation"] <= 1
+    assert s["policy_range"][0] <= s["policy_range"][1] and len(pvp.table(rows).splitlines()) == len(rows) + 6
+    t = pvp.task_structure(rows)
+    assert t["planner_all"] + t["planner_none"] + t["planner_some"] == 200
+    # a file of another method or other tasks is refused with what was expected
+    wrong = _result(tmp_path / "w.json", "hybrid-4x4", 3, [True, False])
+    with pytest.raises(ValueError, match="expected stochastic-gen on the 200 held-out stage-2 tasks"):
+        pvp.load(wrong, "stochastic-gen")
+    out = tmp_path / "plot.png"
+    pvp.plot(rows[:3], out)
+    assert out.stat().st_size > 10_000

@@ -1,0 +1,261 @@
+"""The hybrid 4x4 planner against its network's own sampled policy, over every network measured
+on the same 200 held-out stage-2 tasks (issue 16: does a better policy make a better planner?).
+
+    python scripts/planner_vs_policy.py                              # the table, from the committed results
+    python scripts/planner_vs_policy.py --plot results/diagnosis/planner_vs_policy_s2.png
+
+Each row pairs two `occrl eval --out` files of one network (the weights each evaluation loaded
+are named in the file's "network"; NETWORKS below says which run and iteration they are): its
+own policy (`occrl eval --method stochastic-gen --stage 2 --tasks 200 --workers 1 --weights W`)
+and the paper's planner on it (`--method hybrid-4x4`). The summary fits a least-squares line of
+the planner's success on the policy's and gives the planner's mean margin over its policy; the
+plot draws each network with its 95 % intervals, the hierarchical OMPL planner's success on the
+same tasks and issue 16's goals (planner >= 85 %, own policy >= 75 %).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+HIERARCHICAL = "results/heldout-physics2/hierarchical_s2.json"
+GOAL_PLANNER, GOAL_POLICY = 0.85, 0.75
+
+
+@dataclass(frozen=True)
+class Network:
+    """One network: what it is, and the two evaluations of it on the held-out stage-2 tasks."""
+
+    label: str
+    """The run and iteration (docs/decisions.md names each run's command)."""
+    own: str
+    """`occrl eval --method stochastic-gen` on it: its own sampled policy."""
+    planner: str
+    """`occrl eval --method hybrid-4x4` on it."""
+
+
+NETWORKS = [
+    Network(
+        "occnet-warmstart (DAgger warm start)",
+        "results/retrieval-takeover/stochastic-gen_s2_occnet_reference.json",
+        "results/heldout-physics2/hybrid-4x4_s2.json",
+    ),
+    Network(
+        "occnet-takeover (takeover 75)",
+        "results/retrieval-takeover/stochastic-gen_s2_iteration75.json",
+        "results/retrieval-takeover/hybrid-4x4_s2_iteration75.json",
+    ),
+    Network(
+        "takeover 123",
+        "results/retrieval-takeover/stochastic-gen_s2_iteration123.json",
+        "results/retrieval-takeover/hybrid-4x4_s2_iteration123.json",
+    ),
+    Network(
+        "takeover, reused labels 50",
+        "results/retrieval-takeover/reuse/stochastic-gen_s2_iteration50.json",
+        "results/retrieval-takeover/reuse/hybrid-4x4_s2_iteration50.json",
+    ),
+    Network(
+        "expert iteration 25",
+        "results/curriculum/expert-iteration/it25_stochastic-gen_s2.json",
+        "results/curriculum/expert-iteration/it25_hybrid-4x4_s2.json",
+    ),
+    Network(
+        "expert iteration 98",
+        "results/curriculum/expert-iteration/it98_stochastic-gen_s2.json",
+        "results/curriculum/expert-iteration/it98_hybrid-4x4_s2.json",
+    ),
+    Network(
+        "expert iteration 140",
+        "results/curriculum/expert-iteration/it140_stochastic-gen_s2.json",
+        "results/curriculum/expert-iteration/it140_hybrid-4x4_s2.json",
+    ),
+    Network(
+        "PPO from expert iteration 250", "results/ppo-from-ei/w250_stochastic-gen_s2.json", "results/ppo-from-ei/w250_hybrid-4x4_s2.json"
+    ),
+    Network(
+        "PPO from expert iteration 615", "results/ppo-from-ei/w615_stochastic-gen_s2.json", "results/ppo-from-ei/w615_hybrid-4x4_s2.json"
+    ),
+    Network(
+        "clearing-observed teacher 50",
+        "results/clearing-observed/teacher-frames/stochastic-gen_s2_iteration50.json",
+        "results/clearing-observed/teacher-frames/hybrid-4x4_s2_iteration50.json",
+    ),
+    Network(
+        "fine (128 px) 316",
+        "results/fine/detail-lr3e-4/stochastic-gen_s2_iteration316.json",
+        "results/fine/detail-lr3e-4/hybrid-4x4_s2_iteration316.json",
+    ),
+    Network(
+        "PPO, 4x batch 54",
+        "results/ppo-from-takeover/bigbatch/stochastic-gen_s2_iteration54.json",
+        "results/ppo-from-takeover/bigbatch/hybrid-4x4_s2_iteration54.json",
+    ),
+    Network(
+        "PPO, value off the trunk 75",
+        "results/ppo-from-takeover/detached-critic/stochastic-gen_s2_iteration75.json",
+        "results/ppo-from-takeover/detached-critic/hybrid-4x4_s2_iteration75.json",
+    ),
+    Network(
+        "PPO, value off the trunk 175",
+        "results/ppo-from-takeover/detached-critic/stochastic-gen_s2_iteration175.json",
+        "results/ppo-from-takeover/detached-critic/hybrid-4x4_s2_iteration175.json",
+    ),
+    Network(
+        "PPO, value off the trunk 225",
+        "results/ppo-from-takeover/detached-critic/stochastic-gen_s2_iteration225.json",
+        "results/ppo-from-takeover/detached-critic/hybrid-4x4_s2_iteration225.json",
+    ),
+    Network(
+        "self-imitation, imitation only 60",
+        "results/success-labels/self-imitation-bc-only/stochastic-gen_s2_iteration60.json",
+        "results/success-labels/self-imitation-bc-only/hybrid-4x4_s2_iteration60.json",
+    ),
+    Network(
+        "self-imitation, value off the trunk 40",
+        "results/success-labels/self-imitation-detached-critic/stochastic-gen_s2_iteration40.json",
+        "results/success-labels/self-imitation-detached-critic/hybrid-4x4_s2_iteration40.json",
+    ),
+    Network(
+        "takeover, successes only 50",
+        "results/success-labels/takeover/stochastic-gen_s2_iteration50.json",
+        "results/success-labels/takeover/hybrid-4x4_s2_iteration50.json",
+    ),
+]
+
+
+def load(path: str | Path, method: str) -> dict:
+    """An evaluation file, checked to be ``method`` on the 200 held-out stage-2 tasks at noise 0."""
+    d = json.loads((REPO / path).read_text())
+    where = (d["method"], d["stage"], d["noise"], d["tasks"], d["first_seed"], d.get("world", "pymunk"))
+    if where != (method, 2, 0.0, 200, 10_000_000, "pymunk"):
+        raise ValueError(f"{path}: expected {method} on the 200 held-out stage-2 tasks at noise 0 in pymunk, got {where}")
+    return d
+
+
+def pairs(networks: list[Network] = NETWORKS) -> list[tuple[Network, dict, dict]]:
+    """Each network with its own policy's and its planner's evaluation."""
+    return [(n, load(n.own, "stochastic-gen"), load(n.planner, "hybrid-4x4")) for n in networks]
+
+
+def summary(rows: list[tuple[Network, dict, dict]]) -> dict:
+    """Least-squares line planner = slope * policy + intercept, correlation, margins, ranges."""
+    x = np.array([own["success_rate"] for _, own, _ in rows])
+    y = np.array([planner["success_rate"] for _, _, planner in rows])
+    slope, intercept = np.polyfit(x, y, 1)
+    margin = y - x
+    return {
+        "networks": len(rows),
+        "policy_range": (float(x.min()), float(x.max())),
+        "planner_range": (float(y.min()), float(y.max())),
+        "slope": float(slope),
+        "intercept": float(intercept),
+        "correlation": float(np.corrcoef(x, y)[0, 1]),
+        "mean_margin": float(margin.mean()),
+        "margin_range": (float(margin.min()), float(margin.max())),
+        # the policy the fitted line would need for the planner goal (None: the line does not rise)
+        "policy_for_planner_goal": float((GOAL_PLANNER - intercept) / slope) if slope > 0 else None,
+    }
+
+
+def table(rows: list[tuple[Network, dict, dict]]) -> str:
+    lines = ["| network (run, iteration) | own policy (95 % CI) | hybrid 4x4 (95 % CI) | margin |", "| --- | --- | --- | --- |"]
+    for n, own, planner in sorted(rows, key=lambda r: r[1]["success_rate"]):
+        cells = [f"{d['success_rate']:.1%} ({d['success_ci95'][0]:.1%}-{d['success_ci95'][1]:.1%})" for d in (own, planner)]
+        lines.append(f"| {n.label} | {cells[0]} | {cells[1]} | {100 * (planner['success_rate'] - own['success_rate']):+.1f} |")
+    s = summary(rows)
+    need = s["policy_for_planner_goal"]
+    need = "more than 100 %" if need is None or need > 1 else f"{need:.0%}"
+    lines += [
+        "",
+        f"{s['networks']} networks: own policy {s['policy_range'][0]:.1%}-{s['policy_range'][1]:.1%}, "
+        f"planner {s['planner_range'][0]:.1%}-{s['planner_range'][1]:.1%}; least squares: planner = "
+        f"{s['slope']:.2f} x policy + {s['intercept']:.1%} (correlation {s['correlation']:.2f}); the planner's margin "
+        f"over its policy {100 * s['mean_margin']:+.1f} points on average ({100 * s['margin_range'][0]:+.1f} to "
+        f"{100 * s['margin_range'][1]:+.1f}); on that line the planner goal ({GOAL_PLANNER:.0%}) needs an own policy of {need}.",
+    ]
+    t = task_structure(rows)
+    lines += [
+        "",
+        f"Per task, over the {t['networks']} networks: the planner solved {t['planner_all']} tasks on every network, "
+        f"{t['planner_none']} on none (of these the own policy solved {t['none_by_own']} on any network, the hierarchical "
+        f"planner {t['none_by_hierarchical']}), the other {t['planner_some']} on {t['some_rate']:.0%} of the networks on "
+        f"average; the own policy solved {t['own_all']} on every network and {t['own_none']} on none. Correlation of a "
+        f"task's planner and own-policy solve rates over the networks: {t['task_correlation']:.2f}.",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def task_structure(rows: list[tuple[Network, dict, dict]]) -> dict:
+    """Which tasks the planner (and the own policy) solves on every network, on none, on some."""
+
+    def solved(d: dict) -> np.ndarray:
+        return np.array([bool(e["success"]) for e in sorted(d["episodes"], key=lambda e: e["seed"])])
+
+    own = np.array([solved(o) for _, o, _ in rows]).mean(0)
+    planner = np.array([solved(p) for _, _, p in rows]).mean(0)
+    hierarchical = solved(load(HIERARCHICAL, "hierarchical"))
+    none, some = planner == 0, (planner > 0) & (planner < 1)
+    return {
+        "networks": len(rows),
+        "planner_all": int((planner == 1).sum()),
+        "planner_none": int(none.sum()),
+        "planner_some": int(some.sum()),
+        "some_rate": float(planner[some].mean()),
+        "none_by_own": int((own[none] > 0).sum()),
+        "none_by_hierarchical": int(hierarchical[none].sum()),
+        "own_all": int((own == 1).sum()),
+        "own_none": int((own == 0).sum()),
+        "task_correlation": float(np.corrcoef(planner, own)[0, 1]),
+    }
+
+
+def plot(rows: list[tuple[Network, dict, dict]], out: Path) -> None:
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(6.4, 5.2))
+    ax = fig.add_subplot()
+    for _, own, planner in rows:
+        x, y = 100 * own["success_rate"], 100 * planner["success_rate"]
+        (xlo, xhi), (ylo, yhi) = (np.array(own["success_ci95"]) * 100), (np.array(planner["success_ci95"]) * 100)
+        ax.errorbar(x, y, xerr=[[x - xlo], [xhi - x]], yerr=[[y - ylo], [yhi - y]], fmt="o", color="tab:blue", ms=4, lw=0.6, alpha=0.8)
+    s = summary(rows)
+    xs = np.linspace(30, 100, 2)
+    ax.plot(xs, 100 * (s["slope"] * xs / 100 + s["intercept"]), color="tab:blue", lw=1, label=f"least squares, slope {s['slope']:.2f}")
+    ax.plot(xs, xs, color="grey", lw=0.8, ls=":", label="planner = its policy")
+    hierarchical = load(HIERARCHICAL, "hierarchical")
+    ax.axhline(
+        100 * hierarchical["success_rate"], color="tab:red", lw=1, ls="--", label=f"hierarchical (OMPL) {hierarchical['success_rate']:.1%}"
+    )
+    ax.axhline(100 * GOAL_PLANNER, color="tab:green", lw=1, label=f"goal: planner >= {GOAL_PLANNER:.0%}")
+    ax.axvline(100 * GOAL_POLICY, color="tab:green", lw=1, ls="-.", label=f"goal: own policy >= {GOAL_POLICY:.0%}")
+    ax.set(
+        xlim=(30, 100), ylim=(30, 100), xlabel="network's own sampled policy, stage 2 (%)", ylabel="hybrid 4x4 on that network, stage 2 (%)"
+    )
+    ax.set_title(f"{len(rows)} networks, 200 held-out stage-2 tasks each", fontsize=10)
+    ax.legend(fontsize=8, loc="lower right")
+    ax.grid(alpha=0.3)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=110, bbox_inches="tight")
+
+
+def main(argv: list[str] | None = None) -> str:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--plot", type=Path, help="also draw the networks, the fitted line and the goals to this PNG")
+    args = parser.parse_args(argv)
+    rows = pairs()
+    text = table(rows)
+    print(text, end="")
+    if args.plot:
+        plot(rows, args.plot)
+        print(f"plot: {args.plot}")
+    return text
+
+
+if __name__ == "__main__":
+    main()
