@@ -129,6 +129,42 @@ NETWORKS = [
 ]
 
 
+# One network evaluated again with its own randomness drawn anew (`occrl eval ... --replicate N`):
+# the spread of a result that no change of network can be told from.
+REPLICATES = {
+    "occnet-takeover": (
+        [
+            "results/retrieval-takeover/stochastic-gen_s2_iteration75.json",
+            "results/diagnosis/replicates/stochastic-gen_s2_takeover_replicate1.json",
+            "results/diagnosis/replicates/stochastic-gen_s2_takeover_replicate2.json",
+        ],
+        [
+            "results/retrieval-takeover/hybrid-4x4_s2_iteration75.json",
+            "results/diagnosis/replicates/hybrid-4x4_s2_takeover_replicate1.json",
+            "results/diagnosis/replicates/hybrid-4x4_s2_takeover_replicate2.json",
+        ],
+    ),
+}
+
+
+def solved(d: dict) -> np.ndarray:
+    """The tasks' outcomes in seed order."""
+    return np.array([bool(e["success"]) for e in sorted(d["episodes"], key=lambda e: e["seed"])])
+
+
+def agreement(runs: list[dict]) -> float:
+    """The mean share of tasks on which two of the runs had the same outcome, over every pair."""
+    outcomes = [solved(d) for d in runs]
+    same = [(a == b).mean() for i, a in enumerate(outcomes) for b in outcomes[i + 1 :]]
+    return float(np.mean(same))
+
+
+def replicates(label: str) -> tuple[list[dict], list[dict]]:
+    """The own policy's and the planner's evaluations of one network's replicates."""
+    own, planner = REPLICATES[label]
+    return [load(f, "stochastic-gen") for f in own], [load(f, "hybrid-4x4") for f in planner]
+
+
 def load(path: str | Path, method: str) -> dict:
     """An evaluation file, checked to be ``method`` on the 200 held-out stage-2 tasks at noise 0."""
     d = json.loads((REPO / path).read_text())
@@ -163,6 +199,33 @@ def summary(rows: list[tuple[Network, dict, dict]]) -> dict:
     }
 
 
+def by_target_position(rows: list[tuple[Network, dict, dict]]) -> str:
+    """Solve rates (averaged over the networks) by quartile of the target's depth and of its
+    distance from the shelf's centre line, against the hierarchical planner's on the same tasks."""
+    from occrl.envs.episodes import task_scenes
+
+    seeds = [e["seed"] for e in sorted(rows[0][2]["episodes"], key=lambda e: e["seed"])]
+    scenes = task_scenes(2, seeds)
+    depth = np.array([s.target.pose[1] for s in scenes])
+    side = np.abs([s.target.pose[0] for s in scenes])
+    planner = np.array([solved(p) for _, _, p in rows]).mean(0)
+    own = np.array([solved(o) for _, o, _ in rows]).mean(0)
+    hierarchical = solved(load(HIERARCHICAL, "hierarchical"))
+    lines = [
+        "| target position (quartile of the 200 tasks) | tasks | hybrid 4x4 | own policy | hierarchical |",
+        "| --- | --- | --- | --- | --- |",
+    ]
+    for name, value in (("depth y", depth), ("distance from the centre line, abs(x),", side)):
+        quartile = np.digitize(value, np.quantile(value, [0.25, 0.5, 0.75]))
+        for q in range(4):
+            m = quartile == q
+            lines.append(
+                f"| {name} {value[m].min():.3f}-{value[m].max():.3f} m | {m.sum()} | {planner[m].mean():.0%} | {own[m].mean():.0%} | "
+                f"{hierarchical[m].mean():.0%} |"
+            )
+    return "\n".join(lines) + "\n"
+
+
 def table(rows: list[tuple[Network, dict, dict]]) -> str:
     lines = ["| network (run, iteration) | own policy (95 % CI) | hybrid 4x4 (95 % CI) | margin |", "| --- | --- | --- | --- |"]
     for n, own, planner in sorted(rows, key=lambda r: r[1]["success_rate"]):
@@ -187,16 +250,24 @@ def table(rows: list[tuple[Network, dict, dict]]) -> str:
         f"planner {t['none_by_hierarchical']}), the other {t['planner_some']} on {t['some_rate']:.0%} of the networks on "
         f"average; the own policy solved {t['own_all']} on every network and {t['own_none']} on none. Correlation of a "
         f"task's planner and own-policy solve rates over the networks: {t['task_correlation']:.2f}.",
+        "",
+        f"Two networks' planners agree on {t['planner_agreement']:.1%} of the tasks on average, their own policies on "
+        f"{t['own_agreement']:.1%}.",
     ]
+    for label in REPLICATES:
+        own, planner = replicates(label)
+        lines.append(
+            f"{label} run {len(planner)} times with its randomness drawn anew (replicates 0-{len(planner) - 1}): planner "
+            + " / ".join(f"{d['success_rate']:.1%}" for d in planner)
+            + f", agreeing on {agreement(planner):.1%} of the tasks; own policy "
+            + " / ".join(f"{d['success_rate']:.1%}" for d in own)
+            + f", agreeing on {agreement(own):.1%}."
+        )
     return "\n".join(lines) + "\n"
 
 
 def task_structure(rows: list[tuple[Network, dict, dict]]) -> dict:
     """Which tasks the planner (and the own policy) solves on every network, on none, on some."""
-
-    def solved(d: dict) -> np.ndarray:
-        return np.array([bool(e["success"]) for e in sorted(d["episodes"], key=lambda e: e["seed"])])
-
     own = np.array([solved(o) for _, o, _ in rows]).mean(0)
     planner = np.array([solved(p) for _, _, p in rows]).mean(0)
     hierarchical = solved(load(HIERARCHICAL, "hierarchical"))
@@ -212,6 +283,8 @@ def task_structure(rows: list[tuple[Network, dict, dict]]) -> dict:
         "own_all": int((own == 1).sum()),
         "own_none": int((own == 0).sum()),
         "task_correlation": float(np.corrcoef(planner, own)[0, 1]),
+        "planner_agreement": agreement([p for _, _, p in rows]),
+        "own_agreement": agreement([o for _, o, _ in rows]),
     }
 
 
@@ -224,6 +297,18 @@ def plot(rows: list[tuple[Network, dict, dict]], out: Path) -> None:
         x, y = 100 * own["success_rate"], 100 * planner["success_rate"]
         (xlo, xhi), (ylo, yhi) = (np.array(own["success_ci95"]) * 100), (np.array(planner["success_ci95"]) * 100)
         ax.errorbar(x, y, xerr=[[x - xlo], [xhi - x]], yerr=[[y - ylo], [yhi - y]], fmt="o", color="tab:blue", ms=4, lw=0.6, alpha=0.8)
+    for label in REPLICATES:
+        own, planner = replicates(label)
+        xs_, ys_ = [100 * d["success_rate"] for d in own], [100 * d["success_rate"] for d in planner]
+        ax.plot(
+            xs_,
+            ys_,
+            "s",
+            color="tab:orange",
+            ms=5,
+            mfc="none",
+            label=f"{label}, replicates 0-{len(planner) - 1} (own policy i with planner i)",
+        )
     s = summary(rows)
     xs = np.linspace(30, 100, 2)
     ax.plot(xs, 100 * (s["slope"] * xs / 100 + s["intercept"]), color="tab:blue", lw=1, label=f"least squares, slope {s['slope']:.2f}")
@@ -249,7 +334,7 @@ def main(argv: list[str] | None = None) -> str:
     parser.add_argument("--plot", type=Path, help="also draw the networks, the fitted line and the goals to this PNG")
     args = parser.parse_args(argv)
     rows = pairs()
-    text = table(rows)
+    text = table(rows) + "\nBy the target's position (hybrid 4x4 and own policy averaged over the networks):\n\n" + by_target_position(rows)
     print(text, end="")
     if args.plot:
         plot(rows, args.plot)

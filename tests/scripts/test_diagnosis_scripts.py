@@ -268,9 +268,18 @@ def test_planner_vs_policy_pairs_each_network_and_fits_the_line(tmp_path):
     # the fitted line goes through the points: its residuals sum to zero
     residual = sum(p["success_rate"] - (s["slope"] * o["success_rate"] + s["intercept"]) for _, o, p in rows)
     assert abs(residual) < 1e-9 and -1 <= s["correlation"] <= 1
-    assert s["policy_range"][0] <= s["policy_range"][1] and len(pvp.table(rows).splitlines()) == len(rows) + 6
+    table_rows = [line for line in pvp.table(rows).splitlines() if line.startswith("| ")]
+    assert s["policy_range"][0] <= s["policy_range"][1] and len(table_rows) == len(rows) + 2  # header, rule, a row each
+    positions = [line for line in pvp.by_target_position(rows).splitlines() if line.startswith("| ") and "quartile" not in line]
+    assert len(positions) == 1 + 8 and sum(int(line.split("|")[2]) for line in positions[1:5]) == 200  # rule, 4 + 4 quartiles
     t = pvp.task_structure(rows)
     assert t["planner_all"] + t["planner_none"] + t["planner_some"] == 200
+    own, planner = pvp.replicates("occnet-takeover")
+    assert [d.get("replicate", 0) for d in own] == [d.get("replicate", 0) for d in planner] == [0, 1, 2]  # 0: the recorded run
+    same = _result(tmp_path / "a.json", "hybrid-4x4", 2, [True, False, True, True])
+    other = _result(tmp_path / "b.json", "hybrid-4x4", 2, [True, True, False, True])
+    runs = [pvp.json.loads(f.read_text()) for f in (same, same, other)]
+    assert pvp.agreement(runs) == pytest.approx((1 + 0.5 + 0.5) / 3)
     # a file of another method or other tasks is refused with what was expected
     wrong = _result(tmp_path / "w.json", "hybrid-4x4", 3, [True, False])
     with pytest.raises(ValueError, match="expected stochastic-gen on the 200 held-out stage-2 tasks"):
