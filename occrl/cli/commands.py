@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import logging
 import sys
 import time
 from pathlib import Path
@@ -14,6 +15,8 @@ from occrl.atomic_files import write_text_atomic
 from occrl.cli.options import checked_weights_file, parse_objects
 
 __all__ = ["run_demo", "run_train", "run_eval", "run_export", "run_bench", "network_of"]
+
+logger = logging.getLogger(__name__)
 
 
 def _gl_available() -> bool:
@@ -95,17 +98,22 @@ def run_demo(args: argparse.Namespace) -> int:
     return 0
 
 
-def _stop_on_signals() -> None:
+def _stop_on_signals() -> list[str]:
     """SIGTERM (cluster schedulers, ``kill``) and SIGINT stop training through the trainer's
     ``finally``, which writes the checkpoint. Needed explicitly: a background job started by a
-    non-interactive shell ignores SIGINT, and Python's default SIGTERM skips ``finally``."""
+    non-interactive shell ignores SIGINT, and Python's default SIGTERM skips ``finally``.
+    Returns the names of the signals received, in order (empty until one arrives)."""
     import signal
 
+    received: list[str] = []
+
     def stop(signum, frame):
-        raise KeyboardInterrupt(signal.Signals(signum).name)
+        received.append(signal.Signals(signum).name)
+        raise KeyboardInterrupt(received[-1])
 
     signal.signal(signal.SIGTERM, stop)
     signal.signal(signal.SIGINT, stop)
+    return received
 
 
 def run_train(args: argparse.Namespace) -> int:
@@ -137,20 +145,34 @@ def run_train(args: argparse.Namespace) -> int:
         ray_address=args.ray_address,
         init_weights=init_weights,
     )
-    _stop_on_signals()
+    received = _stop_on_signals()
     try:
         trainer.train(iterations=args.iterations, max_seconds=args.max_hours * 3600 if args.max_hours else None)
     except KeyboardInterrupt as stop:
-        print(_train_summary(args), file=sys.stderr)
-        print(
-            f"stopped ({stop or 'interrupted'}); checkpoint of iteration {trainer.saved_iteration} on disk: run the same command again to resume",
-            file=sys.stderr,
-        )
-        return 130
+        return _stopped(args, trainer, str(stop) or "interrupted")
+    except Exception as err:
+        if not received:
+            raise
+        # The stop arrived inside a library call that turned the KeyboardInterrupt into another
+        # error (TorchRL's MultiSyncCollector, when the signal lands while it starts its worker
+        # processes, raises "Converting a tensordict to boolean value is not permitted"): the
+        # trainer's finally kept the checkpoint all the same, so this is the stop that was asked for.
+        logger.info("%s while stopping on %s: %s", type(err).__name__, received[0], err)
+        return _stopped(args, trainer, received[0])
     finally:
         trainer.close()
     print(_train_summary(args))
     return 0
+
+
+def _stopped(args: argparse.Namespace, trainer, why: str) -> int:
+    """A training run stopped by a signal: its summary, where it can resume, exit status 130."""
+    print(_train_summary(args), file=sys.stderr)
+    print(
+        f"stopped ({why}); checkpoint of iteration {trainer.saved_iteration} on disk: run the same command again to resume",
+        file=sys.stderr,
+    )
+    return 130
 
 
 def _train_summary(args: argparse.Namespace) -> str:

@@ -236,3 +236,34 @@ def test_a_sweep_refuses_the_flags_it_would_ignore(tmp_path, capsys, flags, name
     assert main(["eval", "--sweep", "--methods", "scripted", "--out", str(tmp_path / "out"), *flags]) == 2
     assert f"drop {named}" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()  # nothing run, nothing written
+
+
+def test_a_stop_signal_that_a_library_turns_into_another_error_still_stops_cleanly(tmp_path, capsys, monkeypatch):
+    """SIGTERM landing while TorchRL's multi-process collector starts its workers comes out of it
+    as a RuntimeError, not the KeyboardInterrupt the signal handler raised: still a clean stop."""
+    import os
+    import signal
+
+    from occrl.training import Trainer
+
+    def train_then_signal_inside_a_library(self, iterations=None, max_seconds=None):
+        try:
+            self.save()  # the checkpoint a resumed run starts from
+            os.kill(os.getpid(), signal.SIGTERM)  # the handler raises KeyboardInterrupt here
+        except KeyboardInterrupt:
+            raise RuntimeError("Converting a tensordict to boolean value is not permitted") from None
+
+    def train_with_a_real_error(self, iterations=None, max_seconds=None):
+        raise RuntimeError("a genuine failure")
+
+    handlers = signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGINT)
+    try:
+        monkeypatch.setattr(Trainer, "train", train_then_signal_inside_a_library)
+        assert main(["train", "--preset", "tiny", "--run-dir", str(tmp_path / "run"), "--no-progress"]) == 130
+        assert "stopped (SIGTERM); checkpoint of iteration 0 on disk" in capsys.readouterr().err
+        monkeypatch.setattr(Trainer, "train", train_with_a_real_error)  # no signal: the error is the error
+        with pytest.raises(RuntimeError, match="a genuine failure"):
+            main(["train", "--preset", "tiny", "--run-dir", str(tmp_path / "run2"), "--no-progress"])
+    finally:
+        signal.signal(signal.SIGTERM, handlers[0])
+        signal.signal(signal.SIGINT, handlers[1])
