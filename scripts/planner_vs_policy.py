@@ -144,6 +144,16 @@ REPLICATES = {
             "results/diagnosis/replicates/hybrid-4x4_s2_takeover_replicate2.json",
         ],
     ),
+    "PPO, value off the trunk 225": (
+        [
+            "results/ppo-from-takeover/detached-critic/stochastic-gen_s2_iteration225.json",
+            "results/diagnosis/replicates/stochastic-gen_s2_ppo-detached225_replicate1.json",
+        ],
+        [
+            "results/ppo-from-takeover/detached-critic/hybrid-4x4_s2_iteration225.json",
+            "results/diagnosis/replicates/hybrid-4x4_s2_ppo-detached225_replicate1.json",
+        ],
+    ),
 }
 
 
@@ -297,14 +307,14 @@ def plot(rows: list[tuple[Network, dict, dict]], out: Path) -> None:
         x, y = 100 * own["success_rate"], 100 * planner["success_rate"]
         (xlo, xhi), (ylo, yhi) = (np.array(own["success_ci95"]) * 100), (np.array(planner["success_ci95"]) * 100)
         ax.errorbar(x, y, xerr=[[x - xlo], [xhi - x]], yerr=[[y - ylo], [yhi - y]], fmt="o", color="tab:blue", ms=4, lw=0.6, alpha=0.8)
-    for label in REPLICATES:
+    for label, colour in zip(REPLICATES, ["tab:orange", "tab:purple", "tab:brown", "tab:olive"]):
         own, planner = replicates(label)
         xs_, ys_ = [100 * d["success_rate"] for d in own], [100 * d["success_rate"] for d in planner]
         ax.plot(
             xs_,
             ys_,
             "s",
-            color="tab:orange",
+            color=colour,
             ms=5,
             mfc="none",
             label=f"{label}, replicates 0-{len(planner) - 1} (own policy i with planner i)",
