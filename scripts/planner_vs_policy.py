@@ -4,8 +4,9 @@ on the same 200 held-out stage-2 tasks (issue 16: does a better policy make a be
     python scripts/planner_vs_policy.py                              # the table, from the committed results
     python scripts/planner_vs_policy.py --plot results/diagnosis/planner_vs_policy_s2.png
 
-Each row pairs two `occrl eval --out` files of one network (the weights each evaluation loaded
-are named in the file's "network"; NETWORKS below says which run and iteration they are): its
+Each row pairs two `occrl eval --out` files of one network, as NETWORKS below lists them (the
+pairing rests on that list: a file's "network" names the weights file it loaded, and the two
+evaluations of one network were sometimes run from two copies of it under different paths): its
 own policy (`occrl eval --method stochastic-gen --stage 2 --tasks 200 --workers 1 --weights W`)
 and the paper's planner on it (`--method hybrid-4x4`). The summary fits a least-squares line of
 the planner's success on the policy's and gives the planner's mean margin over its policy; the
@@ -172,15 +173,30 @@ def agreement(runs: list[dict]) -> float:
 def replicates(label: str) -> tuple[list[dict], list[dict]]:
     """The own policy's and the planner's evaluations of one network's replicates."""
     own, planner = REPLICATES[label]
-    return [load(f, "stochastic-gen") for f in own], [load(f, "hybrid-4x4") for f in planner]
+    return [load(f, "stochastic-gen", i) for i, f in enumerate(own)], [load(f, "hybrid-4x4", i) for i, f in enumerate(planner)]
 
 
-def load(path: str | Path, method: str) -> dict:
-    """An evaluation file, checked to be ``method`` on the 200 held-out stage-2 tasks at noise 0."""
+def load(path: str | Path, method: str, replicate: int = 0) -> dict:
+    """An evaluation file, checked to be ``method`` as the paper runs it (no roll-out spread floor,
+    torch inference) on the 200 held-out stage-2 tasks at noise 0, in replicate ``replicate``."""
     d = json.loads((REPO / path).read_text())
-    where = (d["method"], d["stage"], d["noise"], d["tasks"], d["first_seed"], d.get("world", "pymunk"))
-    if where != (method, 2, 0.0, 200, 10_000_000, "pymunk"):
-        raise ValueError(f"{path}: expected {method} on the 200 held-out stage-2 tasks at noise 0 in pymunk, got {where}")
+    where = (
+        d["method"],
+        d["stage"],
+        d.get("objects"),
+        d["noise"],
+        d["tasks"],
+        d["first_seed"],
+        d.get("world", "pymunk"),
+        d.get("rollout_min_scale", 0.0),
+        d.get("inference", "torch"),
+        d.get("replicate", 0),
+    )
+    if where != (method, 2, None, 0.0, 200, 10_000_000, "pymunk", 0.0, "torch", replicate):
+        raise ValueError(
+            f"{path}: expected {method} on the 200 held-out stage-2 tasks (objects of the stage, noise 0, pymunk, "
+            f"no roll-out spread floor, torch inference, replicate {replicate}), got {where}"
+        )
     return d
 
 

@@ -135,7 +135,7 @@ def make_parser() -> argparse.ArgumentParser:
         default=0,
         help="run replicate N of each task: the same shelves and execution noise, the decision maker's own randomness "
         "(policy samples, planner roll-outs) drawn anew (default 0: what every recorded result ran); repeat with N = 1, 2, ... "
-        "to see how much a result varies with that randomness alone",
+        "to see how much a result varies with that randomness alone (greedy and scripted have none: the same result)",
     )
     e.add_argument("--out", default=None, help="write the results as JSON")
     e.add_argument(

@@ -5,10 +5,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import logging
 import sys
 import time
 from pathlib import Path
+from types import FrameType
+from typing import TYPE_CHECKING
 
 from occrl.atomic_files import write_text_atomic
 
@@ -16,7 +17,8 @@ from occrl.cli.options import checked_weights_file, parse_objects
 
 __all__ = ["run_demo", "run_train", "run_eval", "run_export", "run_bench", "network_of"]
 
-logger = logging.getLogger(__name__)
+if TYPE_CHECKING:
+    from occrl.training import Trainer
 
 
 def _gl_available() -> bool:
@@ -107,7 +109,7 @@ def _stop_on_signals() -> list[str]:
 
     received: list[str] = []
 
-    def stop(signum, frame):
+    def stop(signum: int, frame: FrameType | None) -> None:
         received.append(signal.Signals(signum).name)
         raise KeyboardInterrupt(received[-1])
 
@@ -151,13 +153,13 @@ def run_train(args: argparse.Namespace) -> int:
     except KeyboardInterrupt as stop:
         return _stopped(args, trainer, str(stop) or "interrupted")
     except Exception as err:
-        if not received:
-            raise
+        if not received or isinstance(err, OSError) or not _raised_while_interrupted(err):
+            raise  # a failure of its own (a checkpoint that could not be written is one)
         # The stop arrived inside a library call that turned the KeyboardInterrupt into another
-        # error (TorchRL's MultiSyncCollector, when the signal lands while it starts its worker
-        # processes, raises "Converting a tensordict to boolean value is not permitted"): the
-        # trainer's finally kept the checkpoint all the same, so this is the stop that was asked for.
-        logger.info("%s while stopping on %s: %s", type(err).__name__, received[0], err)
+        # error while handling it (TorchRL's MultiSyncCollector, when the signal lands while it
+        # starts its worker processes, raises "Converting a tensordict to boolean value is not
+        # permitted"): the trainer's finally kept the checkpoint, so this is the stop asked for.
+        print(f"note: {type(err).__name__} from a library while stopping on {received[0]}: {err}", file=sys.stderr)
         return _stopped(args, trainer, received[0])
     finally:
         trainer.close()
@@ -165,7 +167,19 @@ def run_train(args: argparse.Namespace) -> int:
     return 0
 
 
-def _stopped(args: argparse.Namespace, trainer, why: str) -> int:
+def _raised_while_interrupted(err: BaseException) -> bool:
+    """Whether ``err`` was raised while a KeyboardInterrupt (a stop signal) was being handled."""
+    seen = set()
+    context = err.__context__
+    while context is not None and id(context) not in seen:
+        if isinstance(context, KeyboardInterrupt):
+            return True
+        seen.add(id(context))
+        context = context.__context__
+    return False
+
+
+def _stopped(args: argparse.Namespace, trainer: Trainer, why: str) -> int:
     """A training run stopped by a signal: its summary, where it can resume, exit status 130."""
     print(_train_summary(args), file=sys.stderr)
     print(

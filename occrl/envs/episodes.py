@@ -27,6 +27,7 @@ __all__ = [
     "EpisodeResult",
     "task_scenes",
     "task_object_count",
+    "check_replicate",
     "decision_seed",
     "seeded_task_env",
     "episode_end",
@@ -101,6 +102,21 @@ def task_scenes(stage: int, seeds: Sequence[int], num_objects: int | tuple[int, 
     return [Scene.sample(stage, seed=int(s), num_objects=num_objects) for s in seeds]
 
 
+def check_replicate(replicate: int) -> None:
+    """``ValueError`` unless ``replicate`` is an integer >= 0 (see :func:`decision_seed`).
+
+    Examples:
+        >>> from occrl.envs.episodes import check_replicate
+        >>> check_replicate(2)
+        >>> check_replicate(1.5)
+        Traceback (most recent call last):
+            ...
+        ValueError: replicate must be an integer >= 0, got 1.5
+    """
+    if isinstance(replicate, bool) or not isinstance(replicate, (int, np.integer)) or replicate < 0:
+        raise ValueError(f"replicate must be an integer >= 0, got {replicate!r}")
+
+
 def decision_seed(task_seed: int, replicate: int = 0) -> int:
     """The seed of the decision maker's randomness in replicate ``replicate`` of a task: the task
     seed itself for replicate 0 (every recorded result), a seed drawn from (task seed, replicate)
@@ -118,8 +134,7 @@ def decision_seed(task_seed: int, replicate: int = 0) -> int:
             ...
         ValueError: replicate must be an integer >= 0, got -1
     """
-    if isinstance(replicate, bool) or not isinstance(replicate, (int, np.integer)) or replicate < 0:
-        raise ValueError(f"replicate must be an integer >= 0, got {replicate!r}")
+    check_replicate(replicate)
     if replicate == 0:
         return int(task_seed)
     return int(np.random.SeedSequence([int(task_seed), int(replicate)]).generate_state(1)[0])
@@ -152,6 +167,7 @@ def seeded_task_env(
         >>> env.batch_size
         torch.Size([2])
     """
+    decision_seeds = [decision_seed(s, replicate) for s in seeds]  # a bad replicate fails before any env is built
     env = make_env(
         batch_size=len(scenes),
         scenes=list(scenes),
@@ -163,7 +179,6 @@ def seeded_task_env(
     )
     for p in primers:
         env.append_transform(p.clone() if hasattr(p, "clone") else p)
-    decision_seeds = [decision_seed(s, replicate) for s in seeds]
     torch.manual_seed(decision_seeds[0])
     if hasattr(policy, "reseed_worlds"):
         policy.reseed_worlds(decision_seeds)

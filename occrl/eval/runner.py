@@ -18,7 +18,7 @@ from tensordict import TensorDictBase
 from torchrl.envs.utils import set_exploration_type
 
 from occrl.envs import world_constants as C
-from occrl.envs.episodes import EpisodeResult, decision_seed, run_episodes, seeded_task_env, task_scenes
+from occrl.envs.episodes import EpisodeResult, check_replicate, run_episodes, seeded_task_env, task_scenes
 
 # EpisodeResult, run_episodes, task_scenes, seeded_task_env live in occrl.envs.episodes (importable here too)
 __all__ = ["rollout_tasks", "run_tasks", "summarize", "wilson_interval", "mcnemar_p", "exclusive_wins", "EVAL_SEED_BASE"]
@@ -283,11 +283,11 @@ def run_tasks(
 
     if backend not in ("local", "ray"):
         raise ValueError(f"backend must be 'local' or 'ray', got {backend!r}")
+    check_replicate(replicate)
     chunks = [list(seeds[i : i + batch]) for i in range(0, len(seeds), batch)]
     own_bar = not hasattr(progress, "update")
     bar = tqdm(total=len(seeds), desc=f"{method} stage {stage} noise {noise}", unit="task", disable=not progress) if own_bar else progress
     results: list[list[EpisodeResult]] = [None] * len(chunks)
-    decision_seed(0, replicate)  # a bad replicate fails here, before any work
     jobs = [(stage, c, num_objects, noise, world, replicate) for c in chunks]
     if backend == "ray":
         results = _run_tasks_ray(

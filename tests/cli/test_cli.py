@@ -256,14 +256,24 @@ def test_a_stop_signal_that_a_library_turns_into_another_error_still_stops_clean
     def train_with_a_real_error(self, iterations=None, max_seconds=None):
         raise RuntimeError("a genuine failure")
 
+    def signal_then_fail_to_save(self, iterations=None, max_seconds=None):
+        try:
+            os.kill(os.getpid(), signal.SIGTERM)
+        finally:
+            raise OSError("No space left on device")  # the checkpoint could not be written: not a clean stop
+
     handlers = signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGINT)
     try:
         monkeypatch.setattr(Trainer, "train", train_then_signal_inside_a_library)
         assert main(["train", "--preset", "tiny", "--run-dir", str(tmp_path / "run"), "--no-progress"]) == 130
-        assert "stopped (SIGTERM); checkpoint of iteration 0 on disk" in capsys.readouterr().err
+        err = capsys.readouterr().err
+        assert "stopped (SIGTERM); checkpoint of iteration 0 on disk" in err and "RuntimeError from a library while stopping" in err
         monkeypatch.setattr(Trainer, "train", train_with_a_real_error)  # no signal: the error is the error
         with pytest.raises(RuntimeError, match="a genuine failure"):
             main(["train", "--preset", "tiny", "--run-dir", str(tmp_path / "run2"), "--no-progress"])
+        monkeypatch.setattr(Trainer, "train", signal_then_fail_to_save)
+        with pytest.raises(OSError, match="No space left"):
+            main(["train", "--preset", "tiny", "--run-dir", str(tmp_path / "run3"), "--no-progress"])
     finally:
         signal.signal(signal.SIGTERM, handlers[0])
         signal.signal(signal.SIGINT, handlers[1])

@@ -284,6 +284,8 @@ def test_planner_vs_policy_pairs_each_network_and_fits_the_line(tmp_path):
     wrong = _result(tmp_path / "w.json", "hybrid-4x4", 3, [True, False])
     with pytest.raises(ValueError, match="expected stochastic-gen on the 200 held-out stage-2 tasks"):
         pvp.load(wrong, "stochastic-gen")
+    with pytest.raises(ValueError, match="replicate 1"):  # a replicate-0 file where replicate 1 belongs
+        pvp.load(pvp.NETWORKS[0].planner, "hybrid-4x4", replicate=1)
     out = tmp_path / "plot.png"
     pvp.plot(rows[:3], out)
-    assert out.stat().st_size > 10_000
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
