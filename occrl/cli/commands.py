@@ -169,7 +169,7 @@ def run_train(args: argparse.Namespace) -> int:
 
 def _raised_while_interrupted(err: BaseException) -> bool:
     """Whether ``err`` was raised while a KeyboardInterrupt (a stop signal) was being handled."""
-    seen = set()
+    seen: set[int] = set()
     context = err.__context__
     while context is not None and id(context) not in seen:
         if isinstance(context, KeyboardInterrupt):
