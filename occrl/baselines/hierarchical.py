@@ -249,6 +249,15 @@ class HierarchicalPlanner(TensorDictModuleBase):
     def last_plans(self) -> list[PlanResult]:
         return [p for ep in self.episodes for p in ep.plans]
 
+    def planned_actions(self, world: int, count: int) -> np.ndarray:
+        """The next ``count`` (at most) actions still queued for world ``world`` by its current
+        low-level plan, (k, 4) with k <= count; empty between plans (Search steps are decided one
+        at a time). The action :meth:`forward` returned last comes before them."""
+        if not 0 <= world < len(self.episodes):
+            raise ValueError(f"world must be in [0, {len(self.episodes)}) (the worlds of the last forward), got {world}")
+        queued = list(self.episodes[world].queue)[: max(int(count), 0)]
+        return np.clip(np.array(queued, dtype=float).reshape(-1, C.ACTION_DIM), -1.0, 1.0)
+
     def reseed(self, seed: int) -> None:
         """Restart the planner's seed sequence (evaluation reseeds per task for reproducibility)."""
         self.seed = int(seed)

@@ -17,6 +17,7 @@ __all__ = [
     "default_network",
     "method_network",
     "hybrid_setting",
+    "ompl_hybrid_setting",
     "is_method",
     "is_planner",
     "METHODS",
@@ -56,15 +57,34 @@ def hybrid_setting(name: str) -> tuple[int, int, bool] | None:
     return int(match.group(2)), int(match.group(3)), match.group(1) is not None
 
 
+# beyond the papers: the hybrid planner with the hierarchical planner's next actions as one more
+# roll-out per root (occrl.baselines.hybrid_ompl); named, never part of a sweep unless named
+_OMPL_HYBRID_NAME = re.compile(r"hybrid-ompl-([1-9][0-9]*)x([1-9][0-9]*)")
+
+
+def ompl_hybrid_setting(name: str) -> tuple[int, int] | None:
+    """``(m, h)`` of a ``hybrid-ompl-MxH`` name (the hybrid planner with an OMPL proposal among its
+    roll-outs, :class:`~occrl.baselines.hybrid_ompl.HybridOMPLPlanner`), None for any other name.
+
+    Examples:
+        >>> from occrl.eval.methods import ompl_hybrid_setting
+        >>> ompl_hybrid_setting("hybrid-ompl-4x4"), ompl_hybrid_setting("hybrid-4x4")
+        ((4, 4), None)
+    """
+    match = _OMPL_HYBRID_NAME.fullmatch(name)
+    return None if match is None else (int(match.group(1)), int(match.group(2)))
+
+
 def is_method(name: str) -> bool:
-    """Whether :func:`make_method` knows ``name``: one of :data:`METHODS` or any hybrid-MxH."""
-    return name in METHODS or hybrid_setting(name) is not None
+    """Whether :func:`make_method` knows ``name``: one of :data:`METHODS`, any hybrid-MxH or
+    hybrid-ompl-MxH."""
+    return name in METHODS or hybrid_setting(name) is not None or ompl_hybrid_setting(name) is not None
 
 
 def is_planner(name: str) -> bool:
-    """Whether a method plans: the hierarchical planner and every hybrid-MxH. Planners run one world
-    per task when evaluated, so their time per task is measured exactly."""
-    return name == "hierarchical" or hybrid_setting(name) is not None
+    """Whether a method plans: the hierarchical planner, every hybrid-MxH and hybrid-ompl-MxH.
+    Planners run one world per task when evaluated, so their time per task is measured exactly."""
+    return name == "hierarchical" or hybrid_setting(name) is not None or ompl_hybrid_setting(name) is not None
 
 
 @dataclass
@@ -104,7 +124,7 @@ def default_network(name: str) -> str | None:
         >>> default_network("hybrid-4x4"), default_network("greedy"), default_network("hierarchical")
         ('occnet', 'occnet-noheatmap', None)
     """
-    if hybrid_setting(name) is not None or name == "stochastic-gen":
+    if hybrid_setting(name) is not None or ompl_hybrid_setting(name) is not None or name == "stochastic-gen":
         return "occnet"
     return "occnet-noheatmap" if name in ("greedy", "stochastic") else None
 
@@ -149,7 +169,8 @@ def make_method(
 ) -> Method:
     """``hybrid-MxH`` / ``hybrid-lim-MxH`` (planner on the full net; the papers' are 2x2, 4x4, 6x6 and lim-4x4), ``greedy`` / ``stochastic``
     (net without heat-map head: mean / sampled action), ``stochastic-gen`` (full net, sampled),
-    ``hierarchical`` (Alg. 3 with OMPL; literal Search), ``scripted`` and ``clearing`` (privileged). ``weights``
+    ``hierarchical`` (Alg. 3 with OMPL; literal Search), ``hybrid-ompl-MxH`` (beyond the papers: the
+    hybrid planner with the hierarchical planner's next actions as one more roll-out per root), ``scripted`` and ``clearing`` (privileged). ``weights``
     overrides the shipped net. ``rollout_min_scale`` floors the spread of the hybrid planners'
     roll-outs (:class:`~occrl.planners.HybridPlanner`; 0, the paper, for every other method);
     ``inference`` is how their roll-outs call the network (``"torch"`` or ``"onnxruntime"``).
@@ -162,13 +183,25 @@ def make_method(
         >>> make_method("random")  # doctest: +ELLIPSIS
         Traceback (most recent call last):
             ...
-        ValueError: unknown method 'random'; available: ['hybrid-2x2', ..., 'clearing'] (or any hybrid-MxH / hybrid-lim-MxH, m and h >= 1)
+        ValueError: unknown method 'random'; available: ['hybrid-2x2', ..., 'clearing'] (or any hybrid-MxH / hybrid-lim-MxH / hybrid-ompl-MxH, m and h >= 1)
     """
-    hybrid = hybrid_setting(name)
-    if rollout_min_scale and hybrid is None:
+    hybrid, ompl_hybrid = hybrid_setting(name), ompl_hybrid_setting(name)
+    if rollout_min_scale and hybrid is None and ompl_hybrid is None:
         raise ValueError(f"rollout_min_scale is a hybrid planner setting; {name!r} does not take it")
-    if inference != "torch" and hybrid is None:
+    if inference != "torch" and hybrid is None and ompl_hybrid is None:
         raise ValueError(f"inference is a hybrid planner setting; {name!r} does not take it")
+    if ompl_hybrid is not None:
+        from occrl.baselines.hybrid_ompl import HybridOMPLPlanner
+
+        m, h = ompl_hybrid
+        net = _net("occnet", weights)
+        return Method(
+            name,
+            HybridOMPLPlanner(net, m=m, h=h, seed=seed, rollout_min_scale=rollout_min_scale, inference=inference),
+            [net.make_primer()],
+            network=_network_record("occnet", weights),
+            image_size=net.config.image_size,
+        )
     if hybrid is not None:
         from occrl.planners import HybridPlanner
 
@@ -207,4 +240,4 @@ def make_method(
             network=_network_record(net_name, weights),
             image_size=net.config.image_size,
         )
-    raise ValueError(f"unknown method {name!r}; available: {METHODS} (or any hybrid-MxH / hybrid-lim-MxH, m and h >= 1)")
+    raise ValueError(f"unknown method {name!r}; available: {METHODS} (or any hybrid-MxH / hybrid-lim-MxH / hybrid-ompl-MxH, m and h >= 1)")

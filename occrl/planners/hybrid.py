@@ -221,7 +221,7 @@ class HybridPlanner(TensorDictModuleBase):
             result = rhp_batched(self.net, states, hidden, noise, self.gamma, self.rollout_min_scale, pool=self.pool, stepper=self.stepper)
         else:
             result = rhp_sequential(self.net, states, hidden, noise, self.gamma, self.rollout_min_scale)
-        return self._record(roots, result, time.perf_counter() - t0, heatmap)
+        return self.record(roots, result, time.perf_counter() - t0, heatmap)
 
     def decide_many(self, observations: list[TensorDictBase], heatmaps: np.ndarray, hidden) -> list[Decision]:
         """One planning step for each of several worlds, all their roll-outs in one batched RHP:
@@ -251,7 +251,7 @@ class HybridPlanner(TensorDictModuleBase):
         seconds = (time.perf_counter() - t0) / len(counts)  # the batch's time, shared
         bounds = np.cumsum([0, *counts])
         return [
-            self._record(roots, result.rows(slice(start, stop)), seconds, heatmap)
+            self.record(roots, result.rows(slice(start, stop)), seconds, heatmap)
             for roots, heatmap, start, stop in zip(roots_per_world, heatmaps, bounds[:-1], bounds[1:])
         ]
 
@@ -265,7 +265,8 @@ class HybridPlanner(TensorDictModuleBase):
             roots[0].weight = 1.0
         return roots
 
-    def _record(self, roots: list[Root], result: RHPResult, seconds: float, heatmap: np.ndarray) -> Decision:
+    def record(self, roots: list[Root], result: RHPResult, seconds: float, heatmap: np.ndarray) -> Decision:
+        """Choose the root (:func:`select_root`) and keep the decision in :attr:`decisions`."""
         chosen = select_root(np.array([r.weight for r in roots]), result.value)
         decision = Decision(roots, result, chosen, result.action[chosen], seconds, heatmap)
         self.decisions.append(decision)

@@ -289,3 +289,29 @@ def test_planner_vs_policy_pairs_each_network_and_fits_the_line(tmp_path):
     out = tmp_path / "plot.png"
     pvp.plot(rows[:3], out)
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_proposal_uptake_replays_the_episodes_occrl_eval_scores(tmp_path):
+    """The script's episodes are those of ``occrl eval`` (same seeds, same outcomes), one
+    proposal record per executed action."""
+    scored = tmp_path / "eval.json"
+    _run("-m", "occrl.cli", "eval", "--method", "hybrid-ompl-2x2", "--stage", "1", "--tasks", "2", "--out", str(scored), "--no-progress")
+    out = tmp_path / "uptake.json"
+    text = _run(
+        "scripts/proposal_uptake.py",
+        "--method",
+        "hybrid-ompl-2x2",
+        "--stage",
+        "1",
+        "--tasks",
+        "2",
+        "--compare",
+        str(scored),
+        "--out",
+        str(out),
+    )
+    report, evaluated = json.loads(out.read_text()), json.loads(scored.read_text())
+    assert report["compare"]["only_this"] == report["compare"]["only_it"] == 0
+    assert report["success_rate"] == evaluated["success_rate"]
+    assert report["uptake"]["all"]["decisions"] == sum(e["actions"] for e in evaluated["episodes"])
+    assert 0.0 <= report["uptake"]["all"]["taken"] <= 1.0 and "proposal kind" in text
