@@ -3,9 +3,12 @@
     python scripts/value_refit.py --out ~/diag/occnet_vfit.pt                      # the shipped occnet
     python scripts/value_refit.py --weights checkpoints/expert-iteration-seed0/weights.pt --out W.pt
     occrl eval --method hybrid-4x4 --stage 2 --tasks 60 --seed 20000000 --weights W.pt   # then compare
+    python scripts/value_refit.py --acting proposer --stages 2 --episodes-per-stage 256 --out W.pt
+        # the value of what hybrid-ompl's hierarchical planner achieves (docs/decisions.md)
 
 The planner scores each roll-out by its rewards plus gamma^h V at the horizon, V being the value
-of the stochastic policy it rolls out. This script collects that policy's own episodes on
+of the stochastic policy it rolls out. This script collects that policy's own episodes (or those
+of another decision maker, ``--acting``: then the head learns what that one achieves) on
 stages 1-3 (task seeds from 40,000,000, apart from the held-out and validation ranges), computes
 the LSTM beliefs once with the trunk frozen, and fits a copy of the value head to the discounted
 returns (truncated episodes bootstrapped with the head's value of their last state, so the fit is
@@ -26,7 +29,7 @@ from tensordict import TensorDict
 from torchrl.modules import set_recurrent_mode
 
 from occrl.envs import world_constants as C
-from occrl.eval.methods import make_method
+from occrl.eval.methods import Method, make_method
 from occrl.eval.runner import rollout_tasks
 from occrl.pretrained import load_pretrained, network_name, weights_file
 from occrl.training import load_weights, save_weights
@@ -34,13 +37,26 @@ from occrl.training import load_weights, save_weights
 FIT_SEED_BASE = 40_000_000
 
 
-def collect(weights: str | None, per_stage: int, batch: int = 64) -> list[dict]:
-    """The stochastic policy's episodes: beliefs, rewards, and whether each ended by termination."""
-    method = make_method("stochastic-gen", weights)
-    net = method.policy.net  # the network the sampled policy runs
+def acting_method(acting: str, weights: str | None, image_size: int) -> Method:
+    """The decision maker whose episodes the head is fitted on: ``stochastic-gen`` (the network's
+    own sampled policy, what the paper's planner rolls out), any ``occrl eval`` method, or
+    ``proposer`` (the hierarchical planner as ``hybrid-ompl-MxH`` runs it, acting itself)."""
+    if acting == "proposer":
+        from occrl.baselines.hybrid_ompl import make_proposer
+
+        return Method("proposer", make_proposer(), image_size=image_size)  # the images the fitted network reads
+    return make_method(acting, weights)
+
+
+def collect(weights: str | None, per_stage: int, batch: int = 64, acting: str = "stochastic-gen", stages=(1, 2, 3)) -> list[dict]:
+    """Episodes of the acting decision maker, with the network's beliefs along them (the trunk
+    run over the episode's images): beliefs, rewards, and whether each ended by termination."""
+    net = load_weights(weights) if weights else load_pretrained("occnet")  # the network whose head is fitted
+    net.eval()
+    method = acting_method(acting, weights, net.config.image_size)
     episodes = []
     start_time = time.time()
-    for stage in (1, 2, 3):
+    for stage in stages:
         for start in range(0, per_stage, batch):
             first = FIT_SEED_BASE + stage * 100_000 + start
             seeds = list(range(first, first + min(batch, per_stage - start)))
@@ -84,7 +100,7 @@ def targets(head, episodes: list[dict]) -> list[torch.Tensor]:
 
 @torch.no_grad()
 def report(head, episodes: list[dict], ys: list[torch.Tensor], label: str) -> None:
-    for stage in (1, 2, 3):
+    for stage in sorted({ep["stage"] for ep in episodes}):
         idx = [i for i, ep in enumerate(episodes) if ep["stage"] == stage]
         v = torch.cat([value_of(head, episodes[i]["belief"]) for i in idx]).numpy()
         y = torch.cat([ys[i] for i in idx]).numpy()
@@ -99,6 +115,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--weights", default=None, help="weights file or shipped network name to start from (default: occnet)")
     parser.add_argument("--episodes-per-stage", type=int, default=512)
+    parser.add_argument(
+        "--acting",
+        default="stochastic-gen",
+        help="whose episodes: stochastic-gen (the network's own policy), an occrl eval method, or proposer (hybrid-ompl's hierarchical planner)",
+    )
+    parser.add_argument("--stages", default="1,2,3", help="comma-separated curriculum stages to collect on")
     parser.add_argument("--rounds", type=int, default=4)
     parser.add_argument("--epochs", type=int, default=15, help="passes over the data per round")
     parser.add_argument("--out", required=True, help="weights file of the network with the refitted value head")
@@ -106,7 +128,10 @@ def main() -> None:
 
     args.weights = weights_file(args.weights)
     torch.manual_seed(0)
-    episodes = collect(args.weights, args.episodes_per_stage)
+    stages = tuple(int(s) for s in args.stages.split(","))
+    if not stages or any(s not in (1, 2, 3) for s in stages):
+        parser.error(f"--stages must name stages among 1, 2, 3, got {args.stages!r}")
+    episodes = collect(args.weights, args.episodes_per_stage, acting=args.acting, stages=stages)
     order = np.random.default_rng(0).permutation(len(episodes))
     test = [episodes[i] for i in order[: len(episodes) // 10]]
     train = [episodes[i] for i in order[len(episodes) // 10 :]]
@@ -133,7 +158,12 @@ def main() -> None:
         report(head, test, targets(head, test), f"refit, round {r + 1}")
     net.critic.load_state_dict(head.state_dict())
     save_weights(
-        args.out, net, meta={"note": f"value head refitted by scripts/value_refit.py from {network_name(args.weights or 'occnet')}"}
+        args.out,
+        net,
+        meta={
+            "note": f"value head refitted by scripts/value_refit.py from {network_name(args.weights or 'occnet')} "
+            f"on {args.acting} episodes, stages {args.stages}"
+        },
     )
     print(f"wrote {args.out}")
 

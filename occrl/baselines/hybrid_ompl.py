@@ -38,13 +38,29 @@ from occrl.planners.rhp import NetworkStepper, RHPResult, rhp_batched, rhp_seque
 
 from occrl.baselines.hierarchical import HierarchicalPlanner
 
-__all__ = ["HybridOMPLPlanner", "ProposalRecord", "rollout_actions", "with_proposal"]
+__all__ = ["HybridOMPLPlanner", "ProposalRecord", "make_proposer", "rollout_actions", "with_proposal"]
 
 # the proposer's settings: those of the hierarchical DAgger teacher (docs/decisions.md), which
 # acts well on states another policy chose: closed-loop, searching from the nearer end and
 # stopping as soon as the target is seen, 1 s per OMPL query
 PROPOSER_FOLLOW_TOLERANCE = (0.01, math.radians(10.0))
 PROPOSER_PLAN_SECONDS = 1.0
+
+
+def make_proposer(plan_seconds: float = PROPOSER_PLAN_SECONDS, seed: int = 0) -> HierarchicalPlanner:
+    """The hierarchical planner as :class:`HybridOMPLPlanner` runs it by default: closed-loop
+    (``follow_tolerance`` 1 cm / 10 degrees), searching from the nearer end and stopping at first
+    sight, ``plan_seconds`` per OMPL query.
+
+    Examples:
+        >>> from occrl.baselines.hybrid_ompl import make_proposer
+        >>> proposer = make_proposer()
+        >>> proposer.sweep_from, proposer.stop_when_located, proposer.plan_seconds
+        ('nearest', True, 1.0)
+    """
+    return HierarchicalPlanner(
+        plan_seconds=plan_seconds, sweep_from="nearest", stop_when_located=True, seed=seed, follow_tolerance=PROPOSER_FOLLOW_TOLERANCE
+    )
 
 
 @dataclass
@@ -155,8 +171,9 @@ class HybridOMPLPlanner(HybridPlanner):
             :class:`~occrl.planners.HybridPlanner` (``batch_worlds`` is not offered: the proposals
             are made world by world).
         plan_seconds: time budget of one OMPL query of the proposer.
-        proposer: the hierarchical planner that proposes (default: closed-loop, nearest-end search
-            stopping at first sight, ``plan_seconds`` per query, seeded with ``seed``); it must
+        proposer: the hierarchical planner that proposes (default :func:`make_proposer`:
+            closed-loop, nearest-end search stopping at first sight, ``plan_seconds`` per query,
+            seeded with ``seed``); it must
             have a ``follow_tolerance``, since the hybrid planner often leaves its plans.
 
     Examples:
@@ -188,13 +205,7 @@ class HybridOMPLPlanner(HybridPlanner):
     ) -> None:
         super().__init__(net, m, h, limited, max_roots, gamma, seed, batched, rollout_min_scale, inference, batch_worlds=False)
         if proposer is None:
-            proposer = HierarchicalPlanner(
-                plan_seconds=plan_seconds,
-                sweep_from="nearest",
-                stop_when_located=True,
-                seed=seed,
-                follow_tolerance=PROPOSER_FOLLOW_TOLERANCE,
-            )
+            proposer = make_proposer(plan_seconds, seed)
         if not isinstance(proposer, HierarchicalPlanner):
             raise TypeError(f"proposer must be a HierarchicalPlanner, got {type(proposer).__name__}")
         if proposer.follow_tolerance is None:
