@@ -155,7 +155,7 @@ def main() -> None:
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
     unknown = [m for m in methods if not is_method(m)]
     if unknown:
-        parser.error(f"unknown method(s) {unknown}; allowed: {', '.join(METHODS)} (or any hybrid-MxH)")
+        parser.error(f"unknown method(s) {unknown}; allowed: {', '.join(METHODS)} (or any hybrid-MxH / hybrid-lim-MxH / hybrid-ompl-MxH)")
     objects = [int(n) for n in args.objects.split(",")]
     if args.tasks < 1 or not all(1 <= n <= 10 for n in objects):
         parser.error(f"--tasks must be >= 1 and --objects within 1-10, got {args.tasks} and {objects}")

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import copy
+import dataclasses
 import time
 
 import numpy as np
@@ -29,7 +30,7 @@ from tensordict import TensorDict
 from torchrl.modules import set_recurrent_mode
 
 from occrl.envs import world_constants as C
-from occrl.eval.methods import Method, make_method
+from occrl.eval.methods import Method, is_method, make_method
 from occrl.eval.runner import rollout_tasks
 from occrl.pretrained import load_pretrained, network_name, weights_file
 from occrl.training import load_weights, save_weights
@@ -45,7 +46,9 @@ def acting_method(acting: str, weights: str | None, image_size: int) -> Method:
         from occrl.baselines.hybrid_ompl import make_proposer
 
         return Method("proposer", make_proposer(), image_size=image_size)  # the images the fitted network reads
-    return make_method(acting, weights)
+    method = make_method(acting, weights)
+    # a method without a network ignores the image; the fitted network reads images of its own size
+    return method if method.network is not None else dataclasses.replace(method, image_size=image_size)
 
 
 def collect(weights: str | None, per_stage: int, batch: int = 64, acting: str = "stochastic-gen", stages=(1, 2, 3)) -> list[dict]:
@@ -128,9 +131,14 @@ def main() -> None:
 
     args.weights = weights_file(args.weights)
     torch.manual_seed(0)
-    stages = tuple(int(s) for s in args.stages.split(","))
-    if not stages or any(s not in (1, 2, 3) for s in stages):
-        parser.error(f"--stages must name stages among 1, 2, 3, got {args.stages!r}")
+    try:
+        stages = tuple(int(s) for s in args.stages.split(","))
+    except ValueError:
+        stages = ()
+    if not stages or any(s not in (1, 2, 3) for s in stages) or len(set(stages)) != len(stages):
+        parser.error(f"--stages must name distinct stages among 1, 2, 3, comma-separated, got {args.stages!r}")
+    if args.acting != "proposer" and not is_method(args.acting):
+        parser.error(f"--acting must be proposer or an occrl eval method, got {args.acting!r}")
     episodes = collect(args.weights, args.episodes_per_stage, acting=args.acting, stages=stages)
     order = np.random.default_rng(0).permutation(len(episodes))
     test = [episodes[i] for i in order[: len(episodes) // 10]]

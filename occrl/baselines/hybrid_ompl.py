@@ -16,6 +16,9 @@ Both decision makers read only observations. The network, the heat-map roots and
 roll-outs are the paper's; only the candidate set grows by one. ``proposals`` records every
 decision's proposal and what became of it (``scripts/proposal_uptake.py`` sums them up).
 
+Timing: a :class:`~occrl.planners.Decision`'s ``seconds`` are the roll-outs' (the proposer plans
+before them, in :meth:`HybridOMPLPlanner.forward`); evaluations time whole episodes.
+
 Reproducibility: the roll-outs are seeded as the hybrid planner's; the proposer's OMPL queries
 are bounded in wall time, as the hierarchical baseline's are, so an episode repeats exactly only
 while every query ends the same within its budget (under another load a few differ).
@@ -35,7 +38,7 @@ import torch
 from tensordict import TensorDictBase
 
 from occrl.envs import world_constants as C
-from occrl.modules.occnet import OccNet
+from occrl.modules.occnet import OccNet, require_recurrent_state
 from occrl.planners import HybridPlanner, RecreatedState, make_world, render_pixels
 from occrl.planners.hybrid import Decision
 from occrl.planners.rhp import NetworkStepper, RHPResult, rhp_batched, rhp_sequential
@@ -46,7 +49,8 @@ __all__ = ["HybridOMPLPlanner", "ProposalRecord", "make_proposer", "rollout_acti
 
 # the proposer's settings: those of the hierarchical DAgger teacher (docs/decisions.md), which
 # acts well on states another policy chose: closed-loop, searching from the nearer end and
-# stopping as soon as the target is seen, 1 s per OMPL query
+# stopping as soon as the target is seen, 1 s per OMPL query; unlike the teacher it keeps the
+# planner's default episode planning limit (120 s, the task's limit)
 PROPOSER_FOLLOW_TOLERANCE = (0.01, math.radians(10.0))
 PROPOSER_PLAN_SECONDS = 1.0
 
@@ -174,7 +178,8 @@ class HybridOMPLPlanner(HybridPlanner):
         net, m, h, limited, max_roots, gamma, seed, batched, rollout_min_scale, inference: as
             :class:`~occrl.planners.HybridPlanner` (``batch_worlds`` is not offered: the proposals
             are made world by world).
-        plan_seconds: time budget of one OMPL query of the proposer.
+        plan_seconds: time budget of one OMPL query of the default proposer (1 s; not with
+            ``proposer``).
         proposer: the hierarchical planner that proposes (default :func:`make_proposer`:
             closed-loop, nearest-end search stopping at first sight, ``plan_seconds`` per query,
             seeded with ``seed``); it must
@@ -204,12 +209,14 @@ class HybridOMPLPlanner(HybridPlanner):
         batched: bool = True,
         rollout_min_scale: float = 0.0,
         inference: str = "torch",
-        plan_seconds: float = PROPOSER_PLAN_SECONDS,
+        plan_seconds: float | None = None,
         proposer: HierarchicalPlanner | None = None,
     ) -> None:
+        if proposer is not None and plan_seconds is not None:
+            raise ValueError("plan_seconds sets the default proposer's budget; with proposer= given, set it on that planner")
         super().__init__(net, m, h, limited, max_roots, gamma, seed, batched, rollout_min_scale, inference, batch_worlds=False)
         if proposer is None:
-            proposer = make_proposer(plan_seconds, seed)
+            proposer = make_proposer(PROPOSER_PLAN_SECONDS if plan_seconds is None else plan_seconds, seed)
         if not isinstance(proposer, HierarchicalPlanner):
             raise TypeError(f"proposer must be a HierarchicalPlanner, got {type(proposer).__name__}")
         if proposer.follow_tolerance is None:
@@ -224,15 +231,20 @@ class HybridOMPLPlanner(HybridPlanner):
 
     @torch.no_grad()
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+        require_recurrent_state(tensordict, "HybridOMPLPlanner")  # before the proposer's memory moves on
         flat = tensordict.reshape(-1)
         proposed = self.proposer(flat.select(*self.proposer.in_keys).copy()).get("action").numpy().astype(float)
         kinds = self.proposer.last_action_kinds
         self._proposals = [
             (np.concatenate([proposed[b : b + 1], self.proposer.planned_actions(b, self.h - 1)]), kinds[b]) for b in range(flat.shape[0])
         ]
-        tensordict = super().forward(tensordict)
-        self._proposals = []
-        return tensordict
+        try:
+            return super().forward(tensordict)
+        finally:
+            self._proposals = []
+
+    def decide_many(self, observations, heatmaps, hidden):
+        raise NotImplementedError("HybridOMPLPlanner decides world by world (each world has its own proposal): keep batch_worlds False")
 
     def decide(self, obs: TensorDictBase, heatmap: np.ndarray, hidden) -> Decision:
         """One planning step for one world: the paper's RHP and the proposal's roll-out from

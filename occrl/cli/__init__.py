@@ -70,7 +70,7 @@ def make_parser() -> argparse.ArgumentParser:
     e = sub.add_parser("eval", help="run a method on fixed task seeds and report success, actions, time")
     e.add_argument(
         "--method",
-        help="hybrid-2x2, hybrid-4x4, hybrid-6x6, hybrid-lim-4x4 (the papers'; any hybrid-MxH or hybrid-lim-MxH runs), "
+        help="hybrid-2x2, hybrid-4x4, hybrid-6x6, hybrid-lim-4x4 (the papers'; any hybrid-MxH, hybrid-lim-MxH or hybrid-ompl-MxH runs), "
         "greedy, stochastic, stochastic-gen, hierarchical, or the privileged scripted and clearing",
     )
     e.add_argument("--sweep", action="store_true", help="the papers' clutter and noise sweeps (resumable; --out is a folder)")

@@ -255,7 +255,9 @@ def run_eval(args: argparse.Namespace) -> int:
         methods = args.methods.split(",") if args.methods else [m for m in METHODS if m not in PRIVILEGED]
         unknown = [m for m in methods if not is_method(m)]
         if unknown:
-            print(f"unknown method(s) {unknown}; available: {METHODS} (or any hybrid-MxH / hybrid-lim-MxH)", file=sys.stderr)
+            print(
+                f"unknown method(s) {unknown}; available: {METHODS} (or any hybrid-MxH / hybrid-lim-MxH / hybrid-ompl-MxH)", file=sys.stderr
+            )
             return 2
         try:
             out = run_sweep(
@@ -287,7 +289,9 @@ def run_eval(args: argparse.Namespace) -> int:
     stage = 1 if args.stage is None else args.stage
 
     if not is_method(args.method):
-        print(f"unknown method {args.method!r}; available: {METHODS} (or any hybrid-MxH / hybrid-lim-MxH)", file=sys.stderr)
+        print(
+            f"unknown method {args.method!r}; available: {METHODS} (or any hybrid-MxH / hybrid-lim-MxH / hybrid-ompl-MxH)", file=sys.stderr
+        )
         return 2
     seeds = list(range(args.seed, args.seed + args.tasks))
     objects = parse_objects(args.objects)

@@ -63,13 +63,19 @@ def test_a_proposal_wins_its_root_only_with_a_strictly_better_return():
 
 
 class KeysSeen(HierarchicalPlanner):
-    """The real hierarchical planner, recording the keys it was given."""
+    """The real hierarchical planner, recording the keys it was given and the actions it returned."""
 
     seen: set = set()
 
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.returned = []  # per forward: (worlds, 4)
+
     def forward(self, tensordict):
         KeysSeen.seen |= set(tensordict.keys(True, True))
-        return super().forward(tensordict)
+        out = super().forward(tensordict)
+        self.returned.append(out.get("action").reshape(-1, 4).numpy().astype(float))
+        return out
 
 
 def test_the_executed_action_is_the_proposal_exactly_when_its_rollout_won(net):
@@ -79,9 +85,12 @@ def test_the_executed_action_is_the_proposal_exactly_when_its_rollout_won(net):
     td = env.rollout(6, planner, break_when_any_done=False)
     assert len(planner.proposals) == len(planner.decisions) == 12
     actions = td["action"].numpy()  # (world, step, 4); the decisions go step by step, world by world
+    assert len(proposer.returned) == 6
     for k, (record, decision) in enumerate(zip(planner.proposals, planner.decisions)):
         firsts = decision.result.first_actions[decision.chosen_root]
         assert firsts.shape == (3, 4)  # two roll-outs and the proposal
+        # every root's last roll-out starts with this world's proposal of this step
+        assert np.allclose(decision.result.first_actions[:, 2], proposer.returned[k // 2][k % 2], atol=1e-6)
         assert np.allclose(actions[k % 2, k // 2], decision.action, atol=1e-6)
         assert record.taken == (np.argmax(decision.result.returns[decision.chosen_root]) == 2)
         if record.taken:
@@ -90,7 +99,17 @@ def test_the_executed_action_is_the_proposal_exactly_when_its_rollout_won(net):
     assert not any(key == "privileged" or (isinstance(key, tuple) and key[0] == "privileged") for key in KeysSeen.seen)
 
 
+def test_a_call_without_the_recurrent_state_is_refused_before_the_proposer_moves_on(net):
+    env = make_env(batch_size=1, stage=1, seed=3, heatmap_target=False)  # no primer
+    planner = HybridOMPLPlanner(net, m=1, h=1, plan_seconds=0.2)
+    with pytest.raises(KeyError, match="recurrent_state"):
+        planner(env.reset())
+    assert planner.proposer.episodes == [] and planner.proposals == []
+
+
 def test_bad_settings_are_refused(net):
+    with pytest.raises(ValueError, match="plan_seconds"):
+        HybridOMPLPlanner(net, plan_seconds=0.5, proposer=HierarchicalPlanner(follow_tolerance=TOLERANCE))
     with pytest.raises(ValueError, match="follow_tolerance"):
         HybridOMPLPlanner(net, proposer=HierarchicalPlanner())
     with pytest.raises(TypeError, match="HierarchicalPlanner"):

@@ -312,10 +312,10 @@ def test_proposal_uptake_counts_one_proposal_per_action_and_the_exclusive_wins(t
         str(out),
     )
     report, evaluated = json.loads(out.read_text()), json.loads(scored.read_text())
-    solved_here = sum(report["solved"].values())
-    solved_there = sum(e["success"] for e in evaluated["episodes"])
-    assert report["compare"]["only_this"] - report["compare"]["only_it"] == solved_here - solved_there
-    assert report["success_rate"] == solved_here / 2
+    assert set(report["solved"]) == {str(e["seed"]) for e in evaluated["episodes"]}  # the same tasks
+    there = {str(e["seed"]): e["success"] for e in evaluated["episodes"]}
+    assert report["compare"]["only_it"] == sum(v and not report["solved"][k] for k, v in there.items())
+    assert report["compare"]["its_success_rate"] == evaluated["success_rate"]
     assert report["uptake"]["all"]["decisions"] == sum(report["actions"].values())
     assert sum(row["decisions"] for kind, row in report["uptake"].items() if kind != "all") == report["uptake"]["all"]["decisions"]
     assert 0.0 <= report["uptake"]["all"]["taken"] <= 1.0 and "proposal kind" in text
