@@ -41,7 +41,7 @@ from occrl.envs import world_constants as C
 from occrl.modules.occnet import OccNet, require_recurrent_state
 from occrl.planners import HybridPlanner, RecreatedState, make_world, render_pixels
 from occrl.planners.hybrid import Decision
-from occrl.planners.rhp import NetworkStepper, RHPResult, rhp_batched, rhp_sequential
+from occrl.planners.rhp import NetworkStepper, RHPResult
 
 from occrl.baselines.hierarchical import HierarchicalPlanner
 
@@ -254,13 +254,8 @@ class HybridOMPLPlanner(HybridPlanner):
         proposal, kind = self._proposals.pop(0)
         t0 = time.perf_counter()
         roots = self.roots(obs, heatmap)
-        noise = torch.randn(len(roots), self.m, self.h, C.ACTION_DIM, generator=self.generator)
-        states = [r.state for r in roots]
-        if self.batched:
-            result = rhp_batched(self.net, states, hidden, noise, self.gamma, self.rollout_min_scale, pool=self.pool, stepper=self.stepper)
-        else:
-            result = rhp_sequential(self.net, states, hidden, noise, self.gamma, self.rollout_min_scale)
-        returns, paths = rollout_actions(self.stepper, states, hidden, proposal, self.gamma)
+        result = self.rollouts(roots, hidden)  # the paper's m x h roll-outs
+        returns, paths = rollout_actions(self.stepper, [r.state for r in roots], hidden, proposal, self.gamma)
         result = with_proposal(result, returns, proposal[0], paths)
         decision = self.record(roots, result, time.perf_counter() - t0, heatmap)
         chosen = result.returns[decision.chosen_root]

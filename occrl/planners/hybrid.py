@@ -215,13 +215,16 @@ class HybridPlanner(TensorDictModuleBase):
         """One planning step for one world (observation without batch dims)."""
         t0 = time.perf_counter()
         roots = self.roots(obs, heatmap)
+        return self.record(roots, self.rollouts(roots, hidden), time.perf_counter() - t0, heatmap)
+
+    def rollouts(self, roots: list[Root], hidden) -> RHPResult:
+        """The m x h roll-outs from every root of one world (Alg. 2), their noise drawn from the
+        planner's generator; ``hidden``: that world's LSTM state, each (1, layers, H)."""
         noise = torch.randn(len(roots), self.m, self.h, C.ACTION_DIM, generator=self.generator)
         states = [r.state for r in roots]
         if self.batched:
-            result = rhp_batched(self.net, states, hidden, noise, self.gamma, self.rollout_min_scale, pool=self.pool, stepper=self.stepper)
-        else:
-            result = rhp_sequential(self.net, states, hidden, noise, self.gamma, self.rollout_min_scale)
-        return self.record(roots, result, time.perf_counter() - t0, heatmap)
+            return rhp_batched(self.net, states, hidden, noise, self.gamma, self.rollout_min_scale, pool=self.pool, stepper=self.stepper)
+        return rhp_sequential(self.net, states, hidden, noise, self.gamma, self.rollout_min_scale)
 
     def decide_many(self, observations: list[TensorDictBase], heatmaps: np.ndarray, hidden) -> list[Decision]:
         """One planning step for each of several worlds, all their roll-outs in one batched RHP:
