@@ -65,7 +65,7 @@ def main() -> None:
     if args.tasks < 1:
         parser.error(f"--tasks must be >= 1, got {args.tasks}")
 
-    method = make_method(args.method, weights_file(args.weights) if args.weights else None)
+    method = make_method(args.method, weights_file(args.weights))
     planner = method.policy
     seeds = [EVAL_SEED_BASE + i for i in range(args.tasks)]
     records, solved, actions = [], {}, {}

@@ -51,11 +51,10 @@ def acting_method(acting: str, weights: str | None, image_size: int) -> Method:
     return method if method.network is not None else dataclasses.replace(method, image_size=image_size)
 
 
-def collect(weights: str | None, per_stage: int, batch: int = 64, acting: str = "stochastic-gen", stages=(1, 2, 3)) -> list[dict]:
-    """Episodes of the acting decision maker, with the network's beliefs along them (the trunk
-    run over the episode's images): beliefs, rewards, and whether each ended by termination."""
-    net = load_weights(weights) if weights else load_pretrained("occnet")  # the network whose head is fitted
-    net.eval()
+def collect(net, weights: str | None, per_stage: int, batch: int = 64, acting: str = "stochastic-gen", stages=(1, 2, 3)) -> list[dict]:
+    """Episodes of the acting decision maker, with ``net``'s beliefs along them (its trunk run over
+    the episode's images; ``net`` is the network of ``weights`` whose head is fitted): beliefs,
+    rewards, and whether each ended by termination."""
     method = acting_method(acting, weights, net.config.image_size)
     episodes = []
     start_time = time.time()
@@ -139,13 +138,13 @@ def main() -> None:
         parser.error(f"--stages must name distinct stages among 1, 2, 3, comma-separated, got {args.stages!r}")
     if args.acting != "proposer" and not is_method(args.acting):
         parser.error(f"--acting must be proposer or an occrl eval method, got {args.acting!r}")
-    episodes = collect(args.weights, args.episodes_per_stage, acting=args.acting, stages=stages)
+    net = load_weights(args.weights) if args.weights else load_pretrained("occnet")
+    net.eval()
+    episodes = collect(net, args.weights, args.episodes_per_stage, acting=args.acting, stages=stages)
     order = np.random.default_rng(0).permutation(len(episodes))
     test = [episodes[i] for i in order[: len(episodes) // 10]]
     train = [episodes[i] for i in order[len(episodes) // 10 :]]
 
-    net = load_weights(args.weights) if args.weights else load_pretrained("occnet")
-    net.eval()
     report(net.critic, test, targets(net.critic, test), "original head")
     head = copy.deepcopy(net.critic)
     optimizer = torch.optim.Adam(head.parameters(), lr=1e-3)
