@@ -58,6 +58,11 @@ def main() -> None:
     parser.add_argument(
         "--compare", default=None, help="a result JSON of the same tasks (occrl eval --out) to count exclusive wins against"
     )
+    parser.add_argument(
+        "--replan-inside",
+        action="store_true",
+        help="the proposer plans from inside the shelf instead of backing out to search (HierarchicalPlanner(replan_inside=True))",
+    )
     parser.add_argument("--out", default=None, help="write the figures as JSON here")
     args = parser.parse_args()
     if ompl_hybrid_setting(args.method) is None:
@@ -67,6 +72,7 @@ def main() -> None:
 
     method = make_method(args.method, weights_file(args.weights))
     planner = method.policy
+    planner.proposer.replan_inside = args.replan_inside
     seeds = [EVAL_SEED_BASE + i for i in range(args.tasks)]
     records, solved, actions = [], {}, {}
     for seed in seeds:
@@ -93,6 +99,7 @@ def main() -> None:
         "stage": args.stage,
         "tasks": args.tasks,
         "network": method.network,
+        "replan_inside": args.replan_inside,
         "success_rate": float(np.mean(list(solved.values()))),
         "uptake": uptake(records),
         "solved": {str(s): v for s, v in solved.items()},

@@ -152,6 +152,13 @@ class HierarchicalPlanner(TensorDictModuleBase):
             it is dropped and the current stage planned again from the observation (a closed-loop
             variant, and what lets the planner label the states another policy visits: see
             :class:`occrl.training.dagger.OnlineTeacherPolicy`).
+        replan_inside: ``False`` (the paper: a Search starts outside the shelf, so a gripper
+            inside is first moved out) or ``True``: where the planner would back the gripper out
+            only to start a Search (a Search due while the gripper is inside the shelf, or a
+            Move_out plan the world left), it plans from where the gripper is instead: the
+            retrieval of a target it has seen, else the Rearrange of the closest known object.
+            For a proposer whose plans another policy often leaves
+            (:class:`occrl.baselines.hybrid_ompl.HybridOMPLPlanner`); needs ``follow_tolerance``.
 
     Attributes:
         planning_seconds: planning time of the current episode (summed over the batch's worlds;
@@ -187,6 +194,7 @@ class HierarchicalPlanner(TensorDictModuleBase):
         avoid_hiding: bool = True,
         seed: int = 0,
         follow_tolerance: tuple[float, float] | None = None,
+        replan_inside: bool = False,
     ) -> None:
         super().__init__()
         from occrl.baselines.kinodynamic import oc
@@ -214,7 +222,10 @@ class HierarchicalPlanner(TensorDictModuleBase):
             if len(follow_tolerance) != 2 or not all(math.isfinite(v) and v > 0 for v in follow_tolerance):
                 raise ValueError(f"follow_tolerance must be None or (metres > 0, radians > 0), got {follow_tolerance!r}")
             follow_tolerance = (float(follow_tolerance[0]), float(follow_tolerance[1]))
+        if replan_inside and follow_tolerance is None:
+            raise ValueError("replan_inside re-plans when the world leaves a Move_out plan: give a follow_tolerance too")
         self.follow_tolerance = follow_tolerance
+        self.replan_inside = bool(replan_inside)
         self.plan_seconds = float(plan_seconds)
         self.planner = planner
         self.sweep_x = float(sweep_x)
@@ -329,7 +340,7 @@ class HierarchicalPlanner(TensorDictModuleBase):
         elif kind == "place":
             ep.stage = "rearrange_place" if closed else "move_out"
         elif kind == "move_out":
-            ep.stage = "move_out"
+            ep.stage = "decide" if self._plans_inside(ep) else "move_out"
         logger.debug("the world left the %s plan at step %d: planning %s again", kind, ep.step, ep.stage)
 
     # ------------------------------------------------------------------ perception memory
@@ -396,7 +407,11 @@ class HierarchicalPlanner(TensorDictModuleBase):
             if not ep.sweep_full and ep.target_in_view:
                 ep.sweep = []  # located: this Search is over
             elif is_inside_shelf(pose):  # Search starts outside the shelf
-                ep.stage = "move_out"
+                if self._plans_inside(ep):
+                    ep.sweep = None
+                    ep.stage = "decide"
+                else:
+                    ep.stage = "move_out"
                 return None
             while ep.sweep and is_at(pose, ep.sweep[0], tol_xy=2e-3, tol_th=math.radians(1.0)):
                 ep.sweep.pop(0)
@@ -451,6 +466,11 @@ class HierarchicalPlanner(TensorDictModuleBase):
                 ep.rearranged.add(ep.rearrange_id)
             return self._queue(ep, plan, ids, next_stage="move_out")
         raise RuntimeError(f"unknown stage {ep.stage!r}")  # pragma: no cover
+
+    def _plans_inside(self, ep: _Episode) -> bool:
+        """With ``replan_inside``: whether "decide" has something to plan for (a target seen, or
+        an object to rearrange), so it need not back out to search first."""
+        return self.replan_inside and (self._target_id(ep) is not None or any(not k.is_target for k in ep.memory.values()))
 
     def _fail(self, ep: _Episode, why: str | None = None) -> None:
         if why:

@@ -55,10 +55,11 @@ PROPOSER_FOLLOW_TOLERANCE = (0.01, math.radians(10.0))
 PROPOSER_PLAN_SECONDS = 1.0
 
 
-def make_proposer(plan_seconds: float = PROPOSER_PLAN_SECONDS, seed: int = 0) -> HierarchicalPlanner:
+def make_proposer(plan_seconds: float = PROPOSER_PLAN_SECONDS, seed: int = 0, replan_inside: bool = False) -> HierarchicalPlanner:
     """The hierarchical planner as :class:`HybridOMPLPlanner` runs it by default: closed-loop
     (``follow_tolerance`` 1 cm / 10 degrees), searching from the nearer end and stopping at first
-    sight, ``plan_seconds`` per OMPL query.
+    sight, ``plan_seconds`` per OMPL query; with ``replan_inside`` it plans from inside the shelf
+    instead of backing out to search (:class:`~occrl.baselines.hierarchical.HierarchicalPlanner`).
 
     Examples:
         >>> from occrl.baselines.hybrid_ompl import make_proposer
@@ -67,7 +68,12 @@ def make_proposer(plan_seconds: float = PROPOSER_PLAN_SECONDS, seed: int = 0) ->
         ('nearest', True, 1.0)
     """
     return HierarchicalPlanner(
-        plan_seconds=plan_seconds, sweep_from="nearest", stop_when_located=True, seed=seed, follow_tolerance=PROPOSER_FOLLOW_TOLERANCE
+        plan_seconds=plan_seconds,
+        sweep_from="nearest",
+        stop_when_located=True,
+        seed=seed,
+        follow_tolerance=PROPOSER_FOLLOW_TOLERANCE,
+        replan_inside=replan_inside,
     )
 
 
@@ -180,6 +186,8 @@ class HybridOMPLPlanner(HybridPlanner):
             are made world by world).
         plan_seconds: time budget of one OMPL query of the default proposer (1 s; not with
             ``proposer``).
+        replan_inside: the default proposer plans from inside the shelf instead of backing out
+            to search (:func:`make_proposer`; not with ``proposer``).
         proposer: the hierarchical planner that proposes (default :func:`make_proposer`:
             closed-loop, nearest-end search stopping at first sight, ``plan_seconds`` per query,
             seeded with ``seed``); it must
@@ -211,12 +219,15 @@ class HybridOMPLPlanner(HybridPlanner):
         inference: str = "torch",
         plan_seconds: float | None = None,
         proposer: HierarchicalPlanner | None = None,
+        replan_inside: bool = False,
     ) -> None:
         if proposer is not None and plan_seconds is not None:
             raise ValueError("plan_seconds sets the default proposer's budget; with proposer= given, set it on that planner")
+        if proposer is not None and replan_inside:
+            raise ValueError("replan_inside sets the default proposer's option; with proposer= given, set it on that planner")
         super().__init__(net, m, h, limited, max_roots, gamma, seed, batched, rollout_min_scale, inference, batch_worlds=False)
         if proposer is None:
-            proposer = make_proposer(PROPOSER_PLAN_SECONDS if plan_seconds is None else plan_seconds, seed)
+            proposer = make_proposer(PROPOSER_PLAN_SECONDS if plan_seconds is None else plan_seconds, seed, replan_inside)
         if not isinstance(proposer, HierarchicalPlanner):
             raise TypeError(f"proposer must be a HierarchicalPlanner, got {type(proposer).__name__}")
         if proposer.follow_tolerance is None:
