@@ -165,3 +165,36 @@ def test_move_out_backs_straight_out_when_every_candidate_motion_is_rejected(mon
     assert len(actions) > 1 and len(poses) == len(actions)
     assert poses[-1][1] < poses[0][1]  # the simulated poses move out of the shelf
     assert all(a[0] < 0 and a[3] <= 0 for a in actions)  # backwards, gripper open
+
+
+def test_replan_inside_plans_from_where_the_gripper_is():
+    """The paper's planner backs a gripper out of the shelf before it searches; with
+    ``replan_inside`` it plans the retrieval of a target it has seen from where the gripper is: at
+    the start of a Search inside the shelf, and when the world leaves a Move_out plan."""
+    tolerance = (0.01, np.radians(10.0))
+    inside = (0.0, 0.04, 0.0)  # the gripper's fingers in the shelf, the target in view ahead
+
+    def first_steps(replan_inside, switch_on_after_push=False):
+        env = make_env(batch_size=1, scenes=[scene([(0.05, 0.2, 0.4, True)], gripper=inside)], heatmap_target=False)
+        planner = HierarchicalPlanner(seed=0, plan_seconds=0.5, follow_tolerance=tolerance, replan_inside=replan_inside)
+        td = env.reset()
+        kinds = []
+        for t in range(3):
+            td = planner(td.exclude("privileged")).update(td.select("privileged"))
+            kinds.append(planner.last_action_kinds[0])
+            if t == 0 and kinds[0] == "move_out":  # leave the Move_out plan: sideways instead
+                td["action"] = torch.tensor([[0.0, 1.0, 0.0, -1.0]])
+                if switch_on_after_push:
+                    planner.replan_inside = True
+            td = env.step(td)["next"]
+        return kinds, planner.episodes[0]
+
+    kinds, ep = first_steps(replan_inside=False)  # the paper: out first, and out again after the push
+    assert kinds[:2] == ["move_out", "move_out"] and ep.replans == 1
+    kinds, ep = first_steps(replan_inside=True)  # the target is in view: reach from inside at once
+    assert kinds[0] == "reach" and ep.replans == 0
+    kinds, ep = first_steps(replan_inside=False, switch_on_after_push=True)  # a Move_out plan left
+    assert kinds[:2] == ["move_out", "reach"] and ep.replans == 1
+
+    with pytest.raises(ValueError, match="follow_tolerance"):
+        HierarchicalPlanner(replan_inside=True)

@@ -112,6 +112,9 @@ def test_bad_settings_are_refused(net):
         HybridOMPLPlanner(net, plan_seconds=0.5, proposer=HierarchicalPlanner(follow_tolerance=TOLERANCE))
     with pytest.raises(ValueError, match="follow_tolerance"):
         HybridOMPLPlanner(net, proposer=HierarchicalPlanner())
+    with pytest.raises(ValueError, match="replan_inside"):
+        HybridOMPLPlanner(net, replan_inside=True, proposer=HierarchicalPlanner(follow_tolerance=TOLERANCE))
+    assert HybridOMPLPlanner(net, replan_inside=True).proposer.replan_inside
     with pytest.raises(TypeError, match="HierarchicalPlanner"):
         HybridOMPLPlanner(net, proposer=object())
     with pytest.raises(RuntimeError, match="inside forward"):
