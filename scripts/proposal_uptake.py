@@ -60,8 +60,10 @@ def main() -> None:
     )
     parser.add_argument(
         "--replan-inside",
-        action="store_true",
-        help="the proposer plans from inside the shelf instead of backing out to search (HierarchicalPlanner(replan_inside=True))",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="the proposer plans from inside the shelf instead of backing out to search (the default; "
+        "--no-replan-inside: it backs out, as in the runs recorded before 2026-12-03's second session)",
     )
     parser.add_argument("--out", default=None, help="write the figures as JSON here")
     args = parser.parse_args()

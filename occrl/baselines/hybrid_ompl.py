@@ -56,10 +56,11 @@ PROPOSER_PLAN_SECONDS = 1.0
 
 
 def make_proposer(plan_seconds: float = PROPOSER_PLAN_SECONDS, seed: int = 0, replan_inside: bool = False) -> HierarchicalPlanner:
-    """The hierarchical planner as :class:`HybridOMPLPlanner` runs it by default: closed-loop
+    """The hierarchical planner as :class:`HybridOMPLPlanner` runs it: closed-loop
     (``follow_tolerance`` 1 cm / 10 degrees), searching from the nearer end and stopping at first
-    sight, ``plan_seconds`` per OMPL query; with ``replan_inside`` it plans from inside the shelf
-    instead of backing out to search (:class:`~occrl.baselines.hierarchical.HierarchicalPlanner`).
+    sight, ``plan_seconds`` per OMPL query; with ``replan_inside`` (HybridOMPLPlanner's default)
+    it plans from inside the shelf instead of backing out to search
+    (:class:`~occrl.baselines.hierarchical.HierarchicalPlanner`).
 
     Examples:
         >>> from occrl.baselines.hybrid_ompl import make_proposer
@@ -187,7 +188,9 @@ class HybridOMPLPlanner(HybridPlanner):
         plan_seconds: time budget of one OMPL query of the default proposer (1 s; not with
             ``proposer``).
         replan_inside: the default proposer plans from inside the shelf instead of backing out
-            to search (:func:`make_proposer`; not with ``proposer``).
+            to search (:func:`make_proposer`; ``False``: it backs out, as the hierarchical
+            baseline does, and as this variant did until 2026-12-03's second session; not with
+            ``proposer``).
         proposer: the hierarchical planner that proposes (default :func:`make_proposer`:
             closed-loop, nearest-end search stopping at first sight, ``plan_seconds`` per query,
             seeded with ``seed``); it must
@@ -219,15 +222,16 @@ class HybridOMPLPlanner(HybridPlanner):
         inference: str = "torch",
         plan_seconds: float | None = None,
         proposer: HierarchicalPlanner | None = None,
-        replan_inside: bool = False,
+        replan_inside: bool | None = None,
     ) -> None:
         if proposer is not None and plan_seconds is not None:
             raise ValueError("plan_seconds sets the default proposer's budget; with proposer= given, set it on that planner")
-        if proposer is not None and replan_inside:
+        if proposer is not None and replan_inside is not None:
             raise ValueError("replan_inside sets the default proposer's option; with proposer= given, set it on that planner")
         super().__init__(net, m, h, limited, max_roots, gamma, seed, batched, rollout_min_scale, inference, batch_worlds=False)
         if proposer is None:
-            proposer = make_proposer(PROPOSER_PLAN_SECONDS if plan_seconds is None else plan_seconds, seed, replan_inside)
+            seconds = PROPOSER_PLAN_SECONDS if plan_seconds is None else plan_seconds
+            proposer = make_proposer(seconds, seed, replan_inside=True if replan_inside is None else replan_inside)
         if not isinstance(proposer, HierarchicalPlanner):
             raise TypeError(f"proposer must be a HierarchicalPlanner, got {type(proposer).__name__}")
         if proposer.follow_tolerance is None:

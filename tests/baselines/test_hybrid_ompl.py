@@ -114,7 +114,7 @@ def test_bad_settings_are_refused(net):
         HybridOMPLPlanner(net, proposer=HierarchicalPlanner())
     with pytest.raises(ValueError, match="replan_inside"):
         HybridOMPLPlanner(net, replan_inside=True, proposer=HierarchicalPlanner(follow_tolerance=TOLERANCE))
-    assert HybridOMPLPlanner(net, replan_inside=True).proposer.replan_inside
+    assert HybridOMPLPlanner(net).proposer.replan_inside and not HybridOMPLPlanner(net, replan_inside=False).proposer.replan_inside
     with pytest.raises(TypeError, match="HierarchicalPlanner"):
         HybridOMPLPlanner(net, proposer=object())
     with pytest.raises(RuntimeError, match="inside forward"):
