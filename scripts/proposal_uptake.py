@@ -65,16 +65,25 @@ def main() -> None:
         help="the proposer plans from inside the shelf instead of backing out to search (the default; "
         "--no-replan-inside: it backs out, as in the runs recorded before 2026-12-03's second session)",
     )
+    parser.add_argument(
+        "--proposal-bonus",
+        type=float,
+        default=0.0,
+        help="added to the proposal roll-out's return before the comparison (HybridOMPLPlanner(proposal_bonus=); default 0)",
+    )
     parser.add_argument("--out", default=None, help="write the figures as JSON here")
     args = parser.parse_args()
     if ompl_hybrid_setting(args.method) is None:
         parser.error(f"--method must be a hybrid-ompl-MxH name, got {args.method!r}")
     if args.tasks < 1:
         parser.error(f"--tasks must be >= 1, got {args.tasks}")
+    if not np.isfinite(args.proposal_bonus):
+        parser.error(f"--proposal-bonus must be a finite number, got {args.proposal_bonus}")
 
     method = make_method(args.method, weights_file(args.weights))
     planner = method.policy
     planner.proposer.replan_inside = args.replan_inside
+    planner.proposal_bonus = args.proposal_bonus
     seeds = [EVAL_SEED_BASE + i for i in range(args.tasks)]
     records, solved, actions = [], {}, {}
     for seed in seeds:
@@ -102,6 +111,7 @@ def main() -> None:
         "tasks": args.tasks,
         "network": method.network,
         "replan_inside": args.replan_inside,
+        "proposal_bonus": args.proposal_bonus,
         "success_rate": float(np.mean(list(solved.values()))),
         "uptake": uptake(records),
         "solved": {str(s): v for s, v in solved.items()},

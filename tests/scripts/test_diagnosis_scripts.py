@@ -319,3 +319,11 @@ def test_proposal_uptake_counts_one_proposal_per_action_and_the_exclusive_wins(t
     assert report["uptake"]["all"]["decisions"] == sum(report["actions"].values())
     assert sum(row["decisions"] for kind, row in report["uptake"].items() if kind != "all") == report["uptake"]["all"]["decisions"]
     assert 0.0 <= report["uptake"]["all"]["taken"] <= 1.0 and "proposal kind" in text
+    assert report["replan_inside"] is True and report["proposal_bonus"] == 0.0
+
+
+def test_proposal_uptake_refuses_a_bonus_that_is_not_a_finite_number():
+    done = subprocess.run(
+        [sys.executable, "scripts/proposal_uptake.py", "--tasks", "1", "--proposal-bonus", "nan"], capture_output=True, text=True, cwd=ROOT
+    )
+    assert done.returncode == 2 and "--proposal-bonus must be a finite number" in done.stderr
