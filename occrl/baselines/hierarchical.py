@@ -13,11 +13,12 @@ High level (one state machine per world of the batch)::
 
 Perception boundary. Only observation keys are read (detections, gripper pose/opening/closed, the
 target's type and shape), never ``"privileged"``. Detections are accumulated by type id (a
-detector's object identity): the last pose seen of every object and whether it is the target.
-Objects out of view keep their last seen pose, or the pose the simulator predicted for them at the
-end of an executed plan; a remembered pose that overlaps a fresher object or the gripper by more
-than 5 mm is dropped as stale. Every observation's camera pose is kept with the object polygons
-known at that moment (for :class:`HidingRegion`).
+detector's object identity) in an :class:`~occrl.baselines.object_memory.ObjectMemory` per world:
+the last pose seen of every object and whether it is the target. Objects out of view keep their
+last seen pose, or the pose the simulator predicted for them at the end of an executed plan; a
+remembered pose that overlaps a fresher object or the gripper by more than 5 mm is dropped as
+stale. Every observation's camera pose is kept with the object polygons known at that moment (for
+:class:`HidingRegion`).
 
 Hand-crafted primitives (the paper's heuristics):
 
@@ -65,17 +66,15 @@ from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
 
 from occrl.envs import world_constants as C
-from occrl.envs.geometry import transform_points
 from occrl.envs.perception import OBSERVATION_KEYS
-from occrl.envs.scene import SceneObject
-from occrl.envs.shelf_geometry import gripper_polygons
 from occrl.envs.pymunk2d.world import ShelfWorld
 from occrl.planners.recreate import RecreatedState, make_world
 
 from occrl.baselines.hiding import HidingRegion
 from occrl.baselines.goals import GoalSpec, HoldGoal, ReachGoal, grasp_poses
 from occrl.baselines.kinodynamic import PlanResult, SimControlProblem
-from occrl.baselines.primitives import KnownObject, closest_object, current_objects, free_spot, move_out
+from occrl.baselines.object_memory import ObjectMemory
+from occrl.baselines.primitives import closest_object, free_spot, move_out
 from occrl.baselines.motion import (
     CLOSE,
     OPEN,
@@ -101,8 +100,7 @@ class _Episode:
     """Per-world memory and high-level state."""
 
     step: int = 0
-    memory: dict = field(default_factory=dict)  # type id -> KnownObject
-    views: list = field(default_factory=list)  # (gripper pose, known object polygons) of every observation
+    known: ObjectMemory = field(default_factory=ObjectMemory)  # the objects detected so far
     queue: deque = field(default_factory=deque)
     expected: deque = field(default_factory=deque)  # gripper pose after each queued action (simulated)
     awaiting: np.ndarray | None = None  # the pose the last executed queued action should have led to
@@ -113,10 +111,8 @@ class _Episode:
     sweep: list | None = None  # waypoints left in the current sweep
     sweep_full: bool = True  # the current sweep does not stop when the target comes into view
     force_sweep: bool = False  # a plan failed: the next Search sweeps in full
-    target_in_view: bool = False  # the target is detected in the current observation
     rearranged: set = field(default_factory=set)  # type ids already moved to the back
     rearrange_id: int | None = None
-    predicted: dict | None = None  # type id -> pose at the end of the queued plan
     planning_seconds: float = 0.0
     plans: list = field(default_factory=list)
     failures: int = 0
@@ -301,7 +297,7 @@ class HierarchicalPlanner(TensorDictModuleBase):
         if self.follow_tolerance is not None and ep.awaiting is not None and self._strayed(pose, ep.awaiting):
             self._drop_plan(ep, bool(obs.get("gripper_closed").reshape(-1)[0]))
         ep.awaiting = None
-        self._observe(ep, obs, pose)
+        ep.known.observe(obs, pose, ep.step, plan_running=bool(ep.queue))
         if ep.queue:
             return np.clip(self._pop(ep), -1.0, 1.0)
         t0 = time.perf_counter()
@@ -331,7 +327,7 @@ class HierarchicalPlanner(TensorDictModuleBase):
         kind = ep.queue_kind
         ep.queue.clear()
         ep.expected.clear()
-        ep.predicted = None
+        ep.known.expect(None)
         ep.replans += 1
         if kind in ("reach", "extract"):
             ep.stage = "retrieve_extract" if closed else "retrieve_reach"
@@ -343,45 +339,6 @@ class HierarchicalPlanner(TensorDictModuleBase):
             ep.stage = "decide" if self._plans_inside(ep) else "move_out"
         logger.debug("the world left the %s plan at step %d: planning %s again", kind, ep.step, ep.stage)
 
-    # ------------------------------------------------------------------ perception memory
-    def _observe(self, ep: _Episode, obs: TensorDictBase, pose: np.ndarray) -> None:
-        objects = obs.get("objects")
-        det = objects.get("detected").cpu().numpy().astype(bool)
-        type_id = objects.get("type_id").cpu().numpy()
-        poses = objects.get("pose").cpu().numpy().astype(float)
-        verts = objects.get("vertices").cpu().numpy().astype(float)
-        nv = objects.get("num_vertices").cpu().numpy()
-        target_type = int(obs.get("target_type").reshape(-1)[0])
-        seen = set()
-        ep.target_in_view = bool(np.any(det & (type_id == target_type)))
-        for k in np.flatnonzero(det):
-            tid = int(type_id[k])
-            seen.add(tid)
-            ep.memory[tid] = KnownObject(tid, verts[k, : nv[k]].copy(), poses[k].copy(), tid == target_type, ep.step)
-        if ep.predicted is not None and not ep.queue:
-            # a plan was executed to its end: objects out of view are where the simulator put them
-            for tid, p in ep.predicted.items():
-                if tid not in seen and tid in ep.memory:
-                    ep.memory[tid].pose = np.asarray(p, float)
-            ep.predicted = None
-        ep.views.append((pose.copy(), [transform_points(k.vertices, k.pose) for k in ep.memory.values()]))
-
-    def _target_id(self, ep: _Episode) -> int | None:
-        return next((tid for tid, k in ep.memory.items() if k.is_target), None)
-
-    def _state(self, ep: _Episode, obs: TensorDictBase, pose: np.ndarray) -> tuple[RecreatedState, list[int]]:
-        """The known state: accumulated objects (stale ones that overlap fresher ones or the
-        gripper are dropped), the gripper as observed. Also the type id of each world index."""
-        opening = float(obs.get("gripper_opening").reshape(-1)[0])
-        closed = bool(obs.get("gripper_closed").reshape(-1)[0])
-        gripper = [transform_points(p, pose) for p in gripper_polygons(opening)]
-        kept = current_objects(ep.memory.values(), ep.step, gripper)
-        objects = tuple(SceneObject(k.type_id, k.vertices, tuple(float(v) for v in k.pose), k.is_target) for k, _ in kept)
-        tv = obs.get("target_vertices").cpu().numpy().astype(float)[: int(obs.get("target_num_vertices").reshape(-1)[0])]
-        target_type = int(obs.get("target_type").reshape(-1)[0])
-        state = RecreatedState(objects, tuple(float(v) for v in pose), opening, closed, target_type, tv)
-        return state, [k.type_id for k, _ in kept]
-
     # ------------------------------------------------------------------ the high level
     def _decide(self, ep: _Episode, obs: TensorDictBase, pose: np.ndarray) -> np.ndarray | None:
         """Advance the state machine by one stage; an action (or None: the next stage decides)."""
@@ -389,7 +346,7 @@ class HierarchicalPlanner(TensorDictModuleBase):
             ep.stage = "search"
             if not is_inside_shelf(pose):
                 return None
-            state, _ = self._state(ep, obs, pose)
+            state, _ = ep.known.known_state(obs, pose, ep.step)
             actions, poses = move_out(state, pose, self._hiding(ep, state), self.search_y)
             ep.queue.extend(actions)
             ep.expected.clear()
@@ -404,7 +361,7 @@ class HierarchicalPlanner(TensorDictModuleBase):
                 ep.sweep = ends
                 ep.sweep_full = ep.force_sweep or not self.stop_when_located
                 ep.force_sweep = False
-            if not ep.sweep_full and ep.target_in_view:
+            if not ep.sweep_full and ep.known.target_in_view:
                 ep.sweep = []  # located: this Search is over
             elif is_inside_shelf(pose):  # Search starts outside the shelf
                 if self._plans_inside(ep):
@@ -426,10 +383,10 @@ class HierarchicalPlanner(TensorDictModuleBase):
                 return None
             return np.array([0.0, 0.0, 0.0, OPEN])
         if ep.stage == "decide":
-            if self._target_id(ep) is not None:
+            if ep.known.target_id() is not None:
                 ep.stage = "retrieve_reach"
             else:
-                tid = closest_object(ep.memory.values(), ep.rearranged, pose)
+                tid = closest_object(ep.known.objects.values(), ep.rearranged, pose)
                 if tid is None:  # nothing known to move: look again
                     logger.info("no target and no object known: searching again")
                     ep.force_sweep = True
@@ -439,12 +396,12 @@ class HierarchicalPlanner(TensorDictModuleBase):
                 ep.stage = "rearrange_reach"
             return None
         # ---- low-level planning stages
-        state, ids = self._state(ep, obs, pose)
+        state, ids = ep.known.known_state(obs, pose, ep.step)
         if ep.stage == "retrieve_reach":
-            plan = self._plan_reach(ep, state, ids, self._target_id(ep))
+            plan = self._plan_reach(ep, state, ids, ep.known.target_id())
             return self._queue(ep, plan, ids, next_stage="retrieve_extract")
         if ep.stage == "retrieve_extract":
-            tid = self._target_id(ep)
+            tid = ep.known.target_id()
             plan = self._plan_hold(ep, state, ids, tid, max_y=C.RETRIEVED_Y - self.extract_margin)
             return self._queue(ep, plan, ids, next_stage="retrieved")
         if ep.stage == "retrieved":  # the extract plan ran out but the episode goes on: it failed
@@ -470,7 +427,7 @@ class HierarchicalPlanner(TensorDictModuleBase):
     def _plans_inside(self, ep: _Episode) -> bool:
         """With ``replan_inside``: whether "decide" has something to plan for (a target seen, or
         an object to rearrange), so it need not back out to search first."""
-        return self.replan_inside and (self._target_id(ep) is not None or any(not k.is_target for k in ep.memory.values()))
+        return self.replan_inside and (ep.known.target_id() is not None or ep.known.knows_non_target())
 
     def _fail(self, ep: _Episode, why: str | None = None) -> None:
         if why:
@@ -488,7 +445,7 @@ class HierarchicalPlanner(TensorDictModuleBase):
         ep.expected.extend(plan.gripper_poses)
         ep.queue_kind = {"retrieve_extract": "reach", "retrieved": "extract", "rearrange_place": "rearrange_reach"}.get(next_stage, "place")
         if plan.final is not None:
-            ep.predicted = {tid: plan.final.object_poses[i].copy() for i, tid in enumerate(ids)}
+            ep.known.expect({tid: plan.final.object_poses[i].copy() for i, tid in enumerate(ids)})
         ep.stage = next_stage
         if not ep.queue:
             return None
@@ -561,12 +518,6 @@ class HierarchicalPlanner(TensorDictModuleBase):
         if state.target_detected or not self.avoid_hiding:
             return None
         if ep.hiding is None or ep.hiding[0] != ep.step:
-            views, seen = [], set()
-            for v in ep.views:  # one per distinct pose, at most about 16
-                key = tuple(np.round(v[0], 3))
-                if key not in seen:
-                    seen.add(key)
-                    views.append(v)
-            views = views[:: max(1, len(views) // 16)]
+            views = ep.known.distinct_views(16)
             ep.hiding = (ep.step, HidingRegion(state.target_vertices, views, state.polygons()))
         return ep.hiding[1]

@@ -6,7 +6,7 @@ cannot see, and a network imitating it learns an average of its plans (docs/deci
 issue 16). :class:`ObservedClearingRetriever` makes the same decisions from the observation
 history alone: every object detected so far in the episode where it was last seen (a detector's
 identity, the type id; stale memories dropped as the hierarchical planner drops them,
-:func:`~occrl.baselines.primitives.current_objects`), and an object held between closed
+:func:`~occrl.baselines.object_memory.current_objects`), and an object held between closed
 fingers carried along with them. Its actions are then a function of the observation history,
 which a recurrent network can learn.
 
@@ -33,7 +33,7 @@ from occrl.envs.shelf_geometry import gripper_polygons, inverse_pose
 from occrl.planners.recreate import HELD_MIN_OPENING, recreate
 
 from occrl.baselines.clearing import ClearingRetriever
-from occrl.baselines.primitives import KnownObject, current_objects
+from occrl.baselines.object_memory import KnownObject, current_objects
 
 __all__ = ["ObservedClearingRetriever", "NO_TARGET_ACTION"]
 

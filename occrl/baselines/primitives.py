@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass
 from typing import Iterable
 
 import numpy as np
@@ -26,10 +25,10 @@ from occrl.envs.geometry import point_in_convex_polygon, polygons_overlap, trans
 from occrl.planners.recreate import RecreatedState, make_world
 
 from occrl.baselines.hiding import HidingRegion
+from occrl.baselines.object_memory import KnownObject
 from occrl.baselines.motion import (
     OPEN,
     OUT_Y,
-    STALE_OVERLAP,
     STROKE_HALF,
     count_intrusions,
     is_at,
@@ -38,41 +37,9 @@ from occrl.baselines.motion import (
     steer_action,
 )
 
-__all__ = ["KnownObject", "current_objects", "closest_object", "free_spot", "move_out"]
+__all__ = ["closest_object", "free_spot", "move_out"]
 
 logger = logging.getLogger("occrl.baselines.hierarchical")
-
-
-@dataclass
-class KnownObject:
-    """What the planner remembers of an object it has seen: its type id (a detector's object
-    identity), shape, last seen (or predicted) pose, whether it is the target, and when it was
-    last seen (decision step)."""
-
-    type_id: int
-    vertices: np.ndarray
-    pose: np.ndarray
-    is_target: bool
-    seen_step: int
-
-
-def current_objects(known: Iterable[KnownObject], step: int, gripper: list[np.ndarray]) -> list[tuple[KnownObject, np.ndarray]]:
-    """The remembered objects taken to be where they were last seen, each with its shelf-frame
-    outline, sorted by type id: freshest first, a remembered pose that overlaps a fresher object,
-    or (unless seen at ``step``) the gripper's outlines ``gripper``, by more than
-    :data:`~occrl.baselines.motion.STALE_OVERLAP` is stale and left out."""
-    kept: list[tuple[KnownObject, np.ndarray]] = []
-    for k in sorted(known, key=lambda k: -k.seen_step):  # freshest first
-        poly = transform_points(k.vertices, k.pose)
-        fresh = k.seen_step == step
-        # pymunk lets bodies in contact overlap by a few mm: only deeper overlaps mean stale
-        if any(polygons_overlap(poly, q, clearance=-STALE_OVERLAP) for _, q in kept):
-            continue
-        if not fresh and any(polygons_overlap(poly, g, clearance=-STALE_OVERLAP) for g in gripper):
-            continue
-        kept.append((k, poly))
-    kept.sort(key=lambda kp: kp[0].type_id)
-    return kept
 
 
 def closest_object(known: Iterable[KnownObject], rearranged: set, pose: np.ndarray) -> int | None:
