@@ -15,7 +15,7 @@ import sys
 
 from occrl import __version__
 from occrl.cli.commands import run_bench, run_demo, run_eval, run_export, run_train
-from occrl.cli.options import COUNT, NOISE, NON_NEGATIVE, POSITIVE, SCALE, SEED, add_train_settings
+from occrl.cli.options import COUNT, FINITE, NOISE, NON_NEGATIVE, POSITIVE, SCALE, SEED, add_train_settings
 
 __all__ = ["main", "make_parser"]
 
@@ -121,6 +121,13 @@ def make_parser() -> argparse.ArgumentParser:
         type=SCALE,
         default=0.0,
         help="hybrid planners: floor on the roll-out policy's standard deviation (default 0: the policy's own, as in the paper)",
+    )
+    e.add_argument(
+        "--proposal-bonus",
+        type=FINITE,
+        default=0.0,
+        help="hybrid-ompl-MxH: added to the OMPL plan's roll-out return before it is compared with the policy's roll-outs, "
+        "a prior for the plan in return units (default 0: scored as they are; a large value lets the plan decide alone)",
     )
     e.add_argument(
         "--inference",

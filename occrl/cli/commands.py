@@ -230,6 +230,13 @@ def run_eval(args: argparse.Namespace) -> int:
                 file=sys.stderr,
             )
             return 2
+    if args.proposal_bonus and (args.sweep or not (args.method or "").startswith("hybrid-ompl-")):
+        print(
+            "--proposal-bonus applies to a single hybrid-ompl method (--method hybrid-ompl-MxH), not to "
+            f"{'a sweep' if args.sweep else repr(args.method)}",
+            file=sys.stderr,
+        )
+        return 2
     if args.replicate and args.sweep:
         print(
             "--replicate applies to a single method (--method M), not to a sweep (its points extend by task, not by replicate)",
@@ -315,6 +322,7 @@ def run_eval(args: argparse.Namespace) -> int:
             rollout_min_scale=args.rollout_min_scale,
             inference=args.inference,
             replicate=args.replicate,
+            proposal_bonus=args.proposal_bonus,
         )
     finally:
         _stop_ray_if_used(args)
@@ -328,6 +336,7 @@ def run_eval(args: argparse.Namespace) -> int:
         "first_seed": args.seed,
         **({"rollout_min_scale": args.rollout_min_scale} if args.rollout_min_scale else {}),
         **({"inference": args.inference} if args.inference != "torch" else {}),
+        **({"proposal_bonus": args.proposal_bonus} if args.proposal_bonus else {}),
         **({"replicate": args.replicate} if args.replicate else {}),
         # times per task: each task's own episode (occrl >= 0.3.0), with `batch` tasks run at a time
         "timing": EPISODE_TIMING,

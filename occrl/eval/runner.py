@@ -154,11 +154,15 @@ def summarize(results: Sequence[EpisodeResult]) -> dict:
 _WORKER: dict = {}
 
 
-def _init_worker(method: str, weights, threads: int, rollout_min_scale: float = 0.0, inference: str = "torch") -> None:
+def _init_worker(
+    method: str, weights, threads: int, rollout_min_scale: float = 0.0, inference: str = "torch", proposal_bonus: float = 0.0
+) -> None:
     from occrl.eval.methods import make_method
 
     torch.set_num_threads(threads)
-    _WORKER["method"] = make_method(method, weights, rollout_min_scale=rollout_min_scale, inference=inference)
+    _WORKER["method"] = make_method(
+        method, weights, rollout_min_scale=rollout_min_scale, inference=inference, proposal_bonus=proposal_bonus
+    )
 
 
 def _run_chunk(args) -> list[EpisodeResult]:
@@ -188,6 +192,7 @@ def _run_tasks_ray(
     max_restarts: int = 2,
     rollout_min_scale: float = 0.0,
     inference: str = "torch",
+    proposal_bonus: float = 0.0,
 ) -> list:
     """Chunks on ``workers`` Ray actors (one CPU each); a chunk whose actor died runs again on a new
     actor (chunks are seeded by their tasks, so the repeat gives the same results)."""
@@ -206,7 +211,7 @@ def _run_tasks_ray(
 
                 path = Path(tempfile.mkdtemp()) / "weights.pt"
                 path.write_bytes(weights_blob)
-            _init_worker(method, path, 1, rollout_min_scale, inference)
+            _init_worker(method, path, 1, rollout_min_scale, inference, proposal_bonus)
 
         def run(self, job):
             return _run_chunk(job)
@@ -261,6 +266,7 @@ def run_tasks(
     rollout_min_scale: float = 0.0,
     inference: str = "torch",
     replicate: int = 0,
+    proposal_bonus: float = 0.0,
 ) -> list[EpisodeResult]:
     """Evaluate a named method on task seeds, in chunks of ``batch`` worlds spread over
     ``workers`` processes (``backend="local"``) or Ray actors (``backend="ray"``, a local runtime
@@ -268,7 +274,7 @@ def run_tasks(
     (per-task wall time aside). ``world="mujoco"`` executes in the 3D MuJoCo env (the planners
     still plan in pymunk, recreated from its detections); ``num_objects=(low, high)`` draws each
     task's object count from its seed. ``rollout_min_scale`` and ``inference`` go to the hybrid
-    planners (:func:`~occrl.eval.methods.make_method`). ``replicate`` > 0 runs the same tasks with
+    planners, ``proposal_bonus`` to ``hybrid-ompl-MxH`` (:func:`~occrl.eval.methods.make_method`). ``replicate`` > 0 runs the same tasks with
     the decision maker's randomness drawn anew (:func:`~occrl.envs.episodes.decision_seed`; 0 is
     what every recorded result ran). ``progress``: show a progress bar with an ETA
     (``True``), none (``False``), or advance a ``tqdm`` bar the caller owns (a sweep's).
@@ -291,10 +297,18 @@ def run_tasks(
     jobs = [(stage, c, num_objects, noise, world, replicate) for c in chunks]
     if backend == "ray":
         results = _run_tasks_ray(
-            method, weights, jobs, max(1, workers), ray_address, bar, rollout_min_scale=rollout_min_scale, inference=inference
+            method,
+            weights,
+            jobs,
+            max(1, workers),
+            ray_address,
+            bar,
+            rollout_min_scale=rollout_min_scale,
+            inference=inference,
+            proposal_bonus=proposal_bonus,
         )
     elif workers <= 1:
-        _init_worker(method, weights, torch.get_num_threads(), rollout_min_scale, inference)
+        _init_worker(method, weights, torch.get_num_threads(), rollout_min_scale, inference, proposal_bonus)
         for k, job in enumerate(jobs):
             results[k] = _run_chunk(job)
             bar.update(len(job[1]))
@@ -306,7 +320,7 @@ def run_tasks(
             workers,
             mp_context=mp.get_context("spawn"),
             initializer=_init_worker,
-            initargs=(method, weights, 1, rollout_min_scale, inference),
+            initargs=(method, weights, 1, rollout_min_scale, inference, proposal_bonus),
         ) as pool:
             futures = {pool.submit(_run_chunk, job): k for k, job in enumerate(jobs)}
             for f in as_completed(futures):

@@ -130,6 +130,30 @@ def test_rollout_min_scale_reaches_the_planner_and_the_json(tmp_path, capsys):
         assert not (tmp_path / "x").exists()
 
 
+def test_proposal_bonus_reaches_the_hybrid_ompl_planner_and_the_json(tmp_path, capsys):
+    pytest.importorskip("ompl")
+    from occrl.eval.methods import make_method
+
+    assert make_method("hybrid-ompl-2x2", proposal_bonus=7.5).policy.proposal_bonus == 7.5
+    assert make_method("hybrid-ompl-2x2").policy.proposal_bonus == 0.0
+    with pytest.raises(ValueError, match="hybrid-ompl-MxH setting"):
+        make_method("hybrid-2x2", proposal_bonus=1.0)
+    out = tmp_path / "r.json"
+    args = ["eval", "--method", "hybrid-ompl-2x2", "--stage", "1", "--objects", "1-1", "--tasks", "1", "--no-progress"]
+    assert main([*args, "--proposal-bonus", "-2.5", "--out", str(out)]) == 0
+    assert json.loads(out.read_text())["proposal_bonus"] == -2.5
+    for bad, message in (
+        (["--method", "hybrid-4x4", "--proposal-bonus", "3"], "applies to a single hybrid-ompl method"),
+        (["--sweep", "--proposal-bonus", "3"], "applies to a single hybrid-ompl method"),
+        (["--method", "hybrid-ompl-4x4", "--proposal-bonus", "inf"], "is not a finite number"),
+        (["--method", "hybrid-ompl-4x4", "--proposal-bonus", "many"], "is not a number"),
+    ):
+        capsys.readouterr()
+        assert main(["eval", *bad, "--tasks", "1", "--no-progress", "--out", str(tmp_path / "x")]) == 2
+        assert message in capsys.readouterr().err
+        assert not (tmp_path / "x").exists()
+
+
 def test_eval_inference_backend_is_recorded_and_checked(tmp_path, capsys):
     pytest.importorskip("onnxruntime")
     out = tmp_path / "onnx.json"
