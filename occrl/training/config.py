@@ -161,6 +161,11 @@ class TrainConfig:
     """Which of the "hierarchical" teacher's steps are labels: "all", or comma-separated action kinds
     (occrl.baselines.hierarchical.ACTION_KINDS), e.g. "reach,extract": the teacher teaches the
     retrieval of a located target and leaves the search to the learner."""
+    teacher_replan_inside: bool = False
+    """The "hierarchical" teacher (or taker-over) plans from where the gripper is instead of backing
+    it out of the shelf to search (HierarchicalPlanner(replan_inside=True), the settings of
+    hybrid-ompl's proposer, which acting alone solves 84.0 % of the held-out stage-2 tasks): on
+    the learner's states inside the shelf its labels are then plans from there, not "back out"."""
     imitation_beta_iters: int = 10
     """The teacher acts with probability decaying from 1 to imitation_beta_min over these iterations
     (0: imitation_beta_min from the start)."""
@@ -264,6 +269,11 @@ class TrainConfig:
                     f"teacher_label_kinds must be 'all' or comma-separated kinds of {ACTION_KINDS} with the "
                     f"hierarchical teacher, got {self.teacher_label_kinds!r} (teacher {self.imitation_teacher!r})"
                 )
+        if self.teacher_replan_inside and "hierarchical" not in (self.imitation_teacher, self.takeover_retriever):
+            raise ValueError(
+                "teacher_replan_inside applies to the hierarchical teacher or taker-over (imitation_teacher or "
+                f"takeover_retriever 'hierarchical'), not to teacher {self.imitation_teacher!r} / taker-over {self.takeover_retriever!r}"
+            )
         if self.promotion == "hybrid" and not self.heatmap:
             raise ValueError("promotion='hybrid' needs the heat-map head (the hybrid planner uses it); use 'learner'")
 

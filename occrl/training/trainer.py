@@ -291,7 +291,7 @@ class Trainer:
         if name == "hierarchical":
             from occrl.baselines.hierarchical import HierarchicalPlanner  # needs OMPL
 
-            return HierarchicalPlanner(seed=self.seed, **HIERARCHICAL_TEACHER)
+            return HierarchicalPlanner(seed=self.seed, replan_inside=self.config.teacher_replan_inside, **HIERARCHICAL_TEACHER)
         if name == "clearing-observed":
             return ObservedClearingRetriever()
         return ClearingRetriever() if name == "clearing" else ScriptedRetriever()

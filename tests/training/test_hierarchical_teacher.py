@@ -238,3 +238,15 @@ def test_a_takeover_at_the_start_hands_whole_episodes_to_the_retriever(tmp_path)
     assert mix.frames_taken_over == 4 * len(whole) and mix.frames == 16
     with pytest.raises(ValueError, match="at must be one of"):
         RetrievalTakeover(HybridPlanner(net, m=2, h=2), retriever, share=0.5, at="midway")
+
+
+def test_the_teacher_can_plan_from_inside_the_shelf(tmp_path):
+    cfg = get_train_config("tiny", imitation_teacher="hierarchical", collector="single", teacher_replan_inside=True)
+    tr = Trainer(cfg, tmp_path / "a", seed=0, progress=False, tensorboard=False)
+    assert tr.expert.replan_inside and tr.expert.follow_tolerance is not None
+    tr.close()
+    plain = Trainer(get_train_config("tiny", imitation_teacher="hierarchical", collector="single"), tmp_path / "b", seed=0, progress=False)
+    assert not plain.expert.replan_inside  # the default is the teacher of the recorded runs
+    plain.close()
+    with pytest.raises(ValueError, match="teacher_replan_inside applies to the hierarchical teacher"):
+        get_train_config("tiny", teacher_replan_inside=True).validate()  # the scripted teacher has no such setting
