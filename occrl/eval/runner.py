@@ -154,15 +154,12 @@ def summarize(results: Sequence[EpisodeResult]) -> dict:
 _WORKER: dict = {}
 
 
-def _init_worker(
-    method: str, weights, threads: int, rollout_min_scale: float = 0.0, inference: str = "torch", proposal_bonus: float = 0.0
-) -> None:
+def _init_worker(method: str, weights, threads: int, settings: dict) -> None:
+    """Make this process's method; ``settings`` are :func:`~occrl.eval.methods.make_method`'s planner settings."""
     from occrl.eval.methods import make_method
 
     torch.set_num_threads(threads)
-    _WORKER["method"] = make_method(
-        method, weights, rollout_min_scale=rollout_min_scale, inference=inference, proposal_bonus=proposal_bonus
-    )
+    _WORKER["method"] = make_method(method, weights, **settings)
 
 
 def _run_chunk(args) -> list[EpisodeResult]:
@@ -189,10 +186,8 @@ def _run_tasks_ray(
     workers: int,
     address: str | None,
     bar,
+    settings: dict,
     max_restarts: int = 2,
-    rollout_min_scale: float = 0.0,
-    inference: str = "torch",
-    proposal_bonus: float = 0.0,
 ) -> list:
     """Chunks on ``workers`` Ray actors (one CPU each); a chunk whose actor died runs again on a new
     actor (chunks are seeded by their tasks, so the repeat gives the same results)."""
@@ -211,7 +206,7 @@ def _run_tasks_ray(
 
                 path = Path(tempfile.mkdtemp()) / "weights.pt"
                 path.write_bytes(weights_blob)
-            _init_worker(method, path, 1, rollout_min_scale, inference, proposal_bonus)
+            _init_worker(method, path, 1, settings)
 
         def run(self, job):
             return _run_chunk(job)
@@ -295,20 +290,11 @@ def run_tasks(
     bar = tqdm(total=len(seeds), desc=f"{method} stage {stage} noise {noise}", unit="task", disable=not progress) if own_bar else progress
     results: list[list[EpisodeResult]] = [None] * len(chunks)
     jobs = [(stage, c, num_objects, noise, world, replicate) for c in chunks]
+    settings = dict(rollout_min_scale=rollout_min_scale, inference=inference, proposal_bonus=proposal_bonus)  # make_method's
     if backend == "ray":
-        results = _run_tasks_ray(
-            method,
-            weights,
-            jobs,
-            max(1, workers),
-            ray_address,
-            bar,
-            rollout_min_scale=rollout_min_scale,
-            inference=inference,
-            proposal_bonus=proposal_bonus,
-        )
+        results = _run_tasks_ray(method, weights, jobs, max(1, workers), ray_address, bar, settings)
     elif workers <= 1:
-        _init_worker(method, weights, torch.get_num_threads(), rollout_min_scale, inference, proposal_bonus)
+        _init_worker(method, weights, torch.get_num_threads(), settings)
         for k, job in enumerate(jobs):
             results[k] = _run_chunk(job)
             bar.update(len(job[1]))
@@ -320,7 +306,7 @@ def run_tasks(
             workers,
             mp_context=mp.get_context("spawn"),
             initializer=_init_worker,
-            initargs=(method, weights, 1, rollout_min_scale, inference, proposal_bonus),
+            initargs=(method, weights, 1, settings),
         ) as pool:
             futures = {pool.submit(_run_chunk, job): k for k, job in enumerate(jobs)}
             for f in as_completed(futures):

@@ -88,6 +88,14 @@ def test_malformed_detections_are_rejected(detections, message):
         )
 
 
+def assert_eval_refuses(bad: list[str], message: str, tmp_path, capsys) -> None:
+    """``occrl eval`` with the arguments ``bad`` exits with status 2, says ``message`` and writes no result."""
+    capsys.readouterr()
+    assert main(["eval", *bad, "--tasks", "1", "--no-progress", "--out", str(tmp_path / "x")]) == 2
+    assert message in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()
+
+
 def test_rollout_min_scale_reaches_the_planner_and_the_json(tmp_path, capsys):
     from occrl.eval.methods import make_method
 
@@ -124,10 +132,7 @@ def test_rollout_min_scale_reaches_the_planner_and_the_json(tmp_path, capsys):
         (["--method", "hybrid-4x4", "--rollout-min-scale", "nan"], "is not a finite number"),
         (["--method", "hybrid-4x4", "--rollout-min-scale", "1.5"], "allowed: a number in [0, 1]"),
     ):
-        capsys.readouterr()
-        assert main(["eval", *bad, "--tasks", "1", "--no-progress", "--out", str(tmp_path / "x")]) == 2
-        assert message in capsys.readouterr().err
-        assert not (tmp_path / "x").exists()
+        assert_eval_refuses(bad, message, tmp_path, capsys)
 
 
 def test_proposal_bonus_reaches_the_hybrid_ompl_planner_and_the_json(tmp_path, capsys):
@@ -148,10 +153,7 @@ def test_proposal_bonus_reaches_the_hybrid_ompl_planner_and_the_json(tmp_path, c
         (["--method", "hybrid-ompl-4x4", "--proposal-bonus", "inf"], "is not a finite number"),
         (["--method", "hybrid-ompl-4x4", "--proposal-bonus", "many"], "is not a number"),
     ):
-        capsys.readouterr()
-        assert main(["eval", *bad, "--tasks", "1", "--no-progress", "--out", str(tmp_path / "x")]) == 2
-        assert message in capsys.readouterr().err
-        assert not (tmp_path / "x").exists()
+        assert_eval_refuses(bad, message, tmp_path, capsys)
 
 
 def test_eval_inference_backend_is_recorded_and_checked(tmp_path, capsys):
@@ -164,10 +166,7 @@ def test_eval_inference_backend_is_recorded_and_checked(tmp_path, capsys):
         (["--method", "scripted", "--inference", "onnxruntime"], "applies to a single hybrid method"),
         (["--method", "hybrid-4x4", "--inference", "tensorrt"], "invalid choice: 'tensorrt'"),
     ):
-        capsys.readouterr()
-        assert main(["eval", *bad, "--tasks", "1", "--no-progress", "--out", str(tmp_path / "x")]) == 2
-        assert message in capsys.readouterr().err
-        assert not (tmp_path / "x").exists()
+        assert_eval_refuses(bad, message, tmp_path, capsys)
 
 
 def test_version(capsys):
