@@ -7,6 +7,9 @@ device, the loss, the optimiser and the DAgger aggregate.
 
 from __future__ import annotations
 
+from contextlib import contextmanager
+from typing import Iterator
+
 import torch
 from tensordict import TensorDictBase
 from torchrl.modules import set_recurrent_mode
@@ -16,9 +19,42 @@ from occrl.objectives import PPOHeatmapLoss, belief_detached, heatmap_loss, imit
 from occrl.training.config import TrainConfig
 from occrl.training.dagger_buffer import DaggerBuffer
 
-__all__ = ["Learner", "PPO_DIAGNOSTICS"]
+__all__ = ["Learner", "PPO_DIAGNOSTICS", "recurrent_layers_training"]
 
 PPO_DIAGNOSTICS = ("kl_approx", "clip_fraction", "entropy")  # ClipPPOLoss outputs logged (mean over the minibatches seen)
+
+
+@contextmanager
+def recurrent_layers_training(net: torch.nn.Module) -> Iterator[None]:
+    """Put the network's recurrent layers (``torch.nn.RNNBase``) in training mode inside the block,
+    everything else as it is, and restore their modes after.
+
+    The net stays in eval mode during the update (batch norm on its running statistics, the same
+    function as collection), but cuDNN refuses the backward pass of an LSTM in eval mode ("cudnn RNN
+    backward can only be called in training mode"). An LSTM without dropout computes the same
+    function in both modes, so this changes nothing on the CPU and lets the update run on CUDA.
+
+    Examples:
+        >>> from occrl.modules import make_occnet
+        >>> net = make_occnet("paper")
+        >>> with recurrent_layers_training(net):
+        ...     net.lstm.lstm.training, net.encoder.training
+        (True, False)
+        >>> net.lstm.lstm.training
+        False
+    """
+    layers = [m for m in net.modules() if isinstance(m, torch.nn.RNNBase)]
+    for layer in layers:
+        if layer.dropout:
+            raise ValueError(f"recurrent_layers_training needs recurrent layers without dropout, got dropout={layer.dropout}")
+    modes = [layer.training for layer in layers]
+    for layer in layers:
+        layer.train()
+    try:
+        yield
+    finally:
+        for layer, mode in zip(layers, modes):
+            layer.train(mode)
 
 
 class Learner:
@@ -90,6 +126,11 @@ class Learner:
         else epochs over the batch), "critic_warmup" (the value head alone) or "ppo" (PPO +
         heat-map loss, stopped early past the KL target). Returns the mean of each loss term.
         """
+        with recurrent_layers_training(self.net):
+            return self.optimise(data, phase)
+
+    def optimise(self, data: TensorDictBase, phase: str) -> dict:
+        """:meth:`update`'s body, run with the recurrent layers in training mode."""
         c = self.config
         B = data.shape[0]
         sums: dict[str, float] = {}

@@ -61,3 +61,21 @@ def test_the_planner_refuses_a_network_off_the_cpu():
     net = make_occnet("paper").to("meta")
     with pytest.raises(ValueError, match="runs its network on the CPU"):
         HybridPlanner(net)
+
+
+def test_the_update_runs_the_recurrent_layers_in_training_mode_and_restores_them():
+    # cuDNN has no LSTM backward in eval mode; the update switches the LSTM alone and switches it back
+    from occrl.training.learner import recurrent_layers_training
+
+    net = make_occnet("paper")
+    lstm = net.lstm.lstm
+    with pytest.raises(RuntimeError, match="inside"):
+        with recurrent_layers_training(net):
+            assert lstm.training and not net.encoder.training and not net.critic.training
+            raise RuntimeError("inside")
+    assert not lstm.training and not net.training
+    lstm.dropout = 0.1
+    with pytest.raises(ValueError, match="without dropout, got dropout=0.1"):
+        with recurrent_layers_training(net):
+            pass
+    assert not lstm.training
