@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from occrl.envs.pymunk2d.world import grasp_candidate
+from occrl.envs.pymunk2d.fingers import grasp_candidate
 from occrl.envs.visibility import in_field_of_view
 from occrl.eval.methods import make_method
 from occrl.eval.runner import EVAL_SEED_BASE, rollout_tasks

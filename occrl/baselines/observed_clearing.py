@@ -28,7 +28,7 @@ from tensordict.nn import TensorDictModuleBase
 from occrl.envs import world_constants as C
 from occrl.envs.geometry import transform_points
 from occrl.envs.perception import OBSERVATION_KEYS
-from occrl.envs.pymunk2d.world import grasp_candidate
+from occrl.envs.pymunk2d.fingers import grasp_candidate
 from occrl.envs.shelf_geometry import gripper_polygons, inverse_pose
 from occrl.planners.recreate import HELD_MIN_OPENING, recreate
 

@@ -38,22 +38,16 @@ import pymunk.batch
 from pymunk._chipmunk_cffi import lib as _cp
 
 from occrl.envs import world_constants as C
-from occrl.envs.geometry import (
-    clip_to_band,
-    convex_hull,
-    polygon_area,
-    polygon_centroid,
-    polygons_overlap,
-    transform_points,
-    transform_polygons,
-)
+from occrl.envs.geometry import convex_hull, polygon_area, polygon_centroid, transform_points, transform_polygons
 from occrl.envs.task import StepOutcome, task_outcome
 from occrl.envs.shelf_geometry import SHELF_WALLS, beyond_walls, gripper_polygons, inverse_pose, wall_polygons
 from occrl.envs.pymunk2d import contact_list, joint_reset
+from occrl.envs.pymunk2d.fingers import closing_stop, grasp_candidate, opening_until_contact
 from occrl.envs.pymunk2d.physics_settings import DEFAULT_PHYSICS, INVALID_PENETRATION, PhysicsSettings
 from occrl.envs.scene import Scene
 
-# the shelf geometry (gripper_polygons, wall_polygons, inverse_pose, beyond_walls) lives in occrl.envs.shelf_geometry
+# the shelf geometry (gripper_polygons, wall_polygons, inverse_pose, beyond_walls) lives in
+# occrl.envs.shelf_geometry, the fingers' (grasp_candidate and where fingers stop) in occrl.envs.pymunk2d.fingers
 __all__ = ["ShelfWorld", "grasp_candidate"]
 
 logger = logging.getLogger(__name__)
@@ -75,48 +69,6 @@ def _limited(constraint: pymunk.Constraint, max_bias: float, max_force: float) -
     _cp.cpConstraintSetMaxBias(constraint._constraint, max_bias)
     _cp.cpConstraintSetMaxForce(constraint._constraint, max_force)
     return constraint
-
-
-def grasp_candidate(gripper_pose, opening: float, polygons: list[np.ndarray]) -> tuple[int | None, dict[int, np.ndarray]]:
-    """The grasp rule. Closing fingers of the given ``opening`` hold an object when it is the only
-    one between them, lies across the gripper axis, has its centre within the finger length and
-    is no wider than the opening. Returns its index (or None) and, for every object that reaches
-    between the fingers, its polygon in the gripper frame.
-
-    Examples:
-        >>> import numpy as np
-        >>> from occrl.envs.pymunk2d.world import grasp_candidate
-        >>> box = np.array([[-0.02, 0.005], [0.02, 0.005], [0.02, 0.045], [-0.02, 0.045]])
-        >>> grasp_candidate((0.0, 0.0, 0.0), 0.085, [box])[0]  # between the fingers
-        0
-        >>> grasp_candidate((0.0, 0.0, 0.0), 0.085, [box + [0.3, 0.0]])  # out of reach
-        (None, {})
-    """
-    if opening <= 1e-6:
-        return None, {}  # closed fingers hold nothing between them
-    h = opening / 2.0
-    band = transform_points(np.array([[-h, 0.0], [h, 0.0], [h, C.FINGER_LENGTH], [-h, C.FINGER_LENGTH]]), gripper_pose)
-    inv = inverse_pose(gripper_pose)
-    near = _near(polygons, band.mean(axis=0), math.hypot(h, C.FINGER_LENGTH / 2.0))
-    touching = {i: transform_points(p, inv) for i, p in enumerate(polygons) if near[i] and polygons_overlap(p, band)}
-    if len(touching) == 1:
-        ((i, local),) = touching.items()
-        xmin, xmax = local[:, 0].min(), local[:, 0].max()
-        cy = local[:, 1].mean()
-        if xmin < 0.0 < xmax and 0.0 <= cy <= C.FINGER_LENGTH and xmax - xmin <= opening:
-            return i, touching
-    return None, touching
-
-
-def _near(polygons: list[np.ndarray], centre: np.ndarray, radius: float) -> list[bool]:
-    """Whether each polygon's bounding circle reaches the circle (``centre``, ``radius``): a cheap
-    exact pre-test before the separating-axis test."""
-    out = []
-    for p in polygons:
-        c = p.sum(axis=0) / len(p)  # p.mean(axis=0), the same values, without mean's overhead
-        r = math.sqrt(float(((p - c) ** 2).sum(axis=1).max()))
-        out.append(math.hypot(c[0] - centre[0], c[1] - centre[1]) <= r + radius)
-    return out
 
 
 _GRIPPER_MOMENTS: dict[float, float] = {}
@@ -561,22 +513,7 @@ class ShelfWorld:
     def _open_fingers(self) -> None:
         """Open towards the full stroke, symmetrically; the fingers stop where one of them first
         touches an object or a wall (the simulated shapes), as they stop at contact when closing."""
-        pose = self.gripper_pose()
-        inv = inverse_pose(pose)
-        outer = self.opening / 2.0 + C.FINGER_WIDTH  # outer face of each finger, gripper frame
-        half = C.GRIPPER_STROKE / 2.0  # half the opening the fingers reach
-        shapes = [*self.simulated_polygons(), *SHELF_WALLS]
-        sweep_centre = transform_points(np.array([[0.0, C.FINGER_LENGTH / 2.0]]), pose)[0]
-        near = _near(shapes, sweep_centre, math.hypot(half + C.FINGER_WIDTH, C.FINGER_LENGTH / 2.0))
-        for local in (transform_points(p, inv) for p, n in zip(shapes, near) if n):
-            part = clip_to_band(local, 0.0, C.FINGER_LENGTH)
-            if len(part) == 0:
-                continue
-            for x in (part[:, 0], -part[:, 0]):  # right finger, then the left one mirrored
-                if x.max() <= outer:
-                    continue  # between or behind the fingers' outer faces: not in the way
-                half = min(half, max(x.min(), outer) - C.FINGER_WIDTH)
-        self._set_opening(2.0 * half)
+        self._set_opening(opening_until_contact(self.gripper_pose(), self.opening, [*self.simulated_polygons(), *SHELF_WALLS]))
 
     def simulated_polygons(self) -> list[np.ndarray]:
         """Each object's shape as simulated (with this action's noise) at its current pose."""
@@ -606,9 +543,7 @@ class ShelfWorld:
             self._set_opening(xmax - xmin)
             self.held = i
             return
-        # Fingers stop at the first contact (or close fully on nothing).
-        reach = max([max(-loc[:, 0].min(), loc[:, 0].max(), 0.0) for loc in touching.values()], default=0.0)
-        self._set_opening(min(2.0 * reach, self.opening))
+        self._set_opening(closing_stop(self.opening, touching))  # at the first contact, or closed on nothing
 
     def _set_opening(self, opening: float) -> None:
         self.opening = float(opening)
