@@ -21,6 +21,7 @@ from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
+from occrl.modules.mixture_policy import mixture_action
 from occrl.modules.occnet import OccNet, require_recurrent_state
 
 __all__ = ["NetPolicy"]
@@ -32,7 +33,9 @@ class NetPolicy(TensorDictModuleBase):
     Args:
         net: the network (with or without heat-map head); its recurrent state travels through
             the tensordict as for ``net.policy`` (append ``net.make_primer()`` to the env).
-        stochastic: sample ``loc + scale * eps`` (the policy's Normal) instead of taking ``loc``.
+        stochastic: sample ``loc + scale * eps`` (the policy's Normal) instead of taking ``loc``
+            (a mixture policy: a component drawn by its probability, then sampled; greedy: the
+            mean of the most probable component).
         seed: seeds the sampling until :meth:`reseed_worlds` or :meth:`reseed` is called.
         spread: multiplies the standard deviation of the sampled actions, a temperature (1: the
             policy's own; 0: its mean, drawn from the same generators). Stochastic only.
@@ -89,12 +92,22 @@ class NetPolicy(TensorDictModuleBase):
         if not self.stochastic:
             return tensordict
         loc, scale = tensordict.get("loc"), tensordict.get("scale")
-        flat_loc = loc.reshape(-1, loc.shape[-1])
-        if len(self._generators) == flat_loc.shape[0]:
-            eps = torch.stack([torch.randn(flat_loc.shape[-1], generator=g) for g in self._generators])
+        mixture = self.net.config.policy_components > 1
+        action_shape = loc.shape[:-2] + loc.shape[-1:] if mixture else loc.shape
+        worlds, dim = int(torch.Size(action_shape[:-1]).numel()), action_shape[-1]
+        if len(self._generators) == worlds:
+            eps = torch.stack([torch.randn(dim, generator=g) for g in self._generators])
+            # a mixture's component: one more draw per world after its action's (none for the paper's policy)
+            uniform = torch.stack([torch.rand((), generator=g) for g in self._generators]) if mixture else None
         else:
-            eps = torch.randn(flat_loc.shape, generator=self._shared)
+            eps = torch.randn((worlds, dim), generator=self._shared)
+            uniform = torch.rand(worlds, generator=self._shared) if mixture else None
         if self.spread != 1.0:
             scale = scale * self.spread
-        tensordict.set("action", loc + scale * eps.reshape(loc.shape).to(loc.dtype))
+        eps = eps.reshape(action_shape).to(loc.dtype)
+        if mixture:
+            action = mixture_action(loc, scale, tensordict.get("mixture_logits"), uniform.reshape(action_shape[:-1]), eps)
+        else:
+            action = loc + scale * eps
+        tensordict.set("action", action)
         return tensordict

@@ -4,5 +4,19 @@ from occrl.modules.encoder import ConvEncoder
 from occrl.modules.heads import HeatmapHead, PolicyHead, ValueHead
 from occrl.modules.occnet import PRESETS, OccNet, OccNetConfig, make_occnet
 from occrl.modules.finer_input import with_finer_input
+from occrl.modules.mixture_policy import GaussianMixture, MixturePolicyHead, with_mixture_policy
 
-__all__ = ["ConvEncoder", "PolicyHead", "ValueHead", "HeatmapHead", "OccNet", "OccNetConfig", "make_occnet", "PRESETS", "with_finer_input"]
+__all__ = [
+    "ConvEncoder",
+    "PolicyHead",
+    "ValueHead",
+    "HeatmapHead",
+    "OccNet",
+    "OccNetConfig",
+    "make_occnet",
+    "PRESETS",
+    "with_finer_input",
+    "MixturePolicyHead",
+    "GaussianMixture",
+    "with_mixture_policy",
+]

@@ -23,12 +23,15 @@ from torchrl.modules import IndependentNormal, LSTMModule, ProbabilisticActor, V
 from occrl.envs import world_constants as C
 from occrl.modules.encoder import ConvEncoder
 from occrl.modules.heads import HeatmapHead, PolicyHead, ValueHead
+from occrl.modules.mixture_policy import GaussianMixture, MixturePolicyHead
 
-__all__ = ["OccNetConfig", "OccNet", "make_occnet", "PRESETS", "RECURRENT_KEYS", "require_recurrent_state"]
+__all__ = ["OccNetConfig", "OccNet", "make_occnet", "PRESETS", "RECURRENT_KEYS", "POLICY_OUTPUTS", "require_recurrent_state"]
 
 # what a recurrent decision maker reads besides the observation: the LSTM's state entries (added by
 # the net's primer) and the episode-start flag (added by TorchRL's InitTracker, which make_env adds)
 RECURRENT_KEYS = ("recurrent_state_h", "recurrent_state_c", "is_init")
+# what the policy head writes: the paper's Gaussian (False), a mixture of Gaussians (True)
+POLICY_OUTPUTS = {False: ("loc", "scale"), True: ("loc", "scale", "mixture_logits")}
 
 
 def require_recurrent_state(tensordict, who: str) -> None:
@@ -74,6 +77,10 @@ class OccNetConfig:
     heatmap: bool = True
     batch_norm: bool = True
     action_dim: int = C.ACTION_DIM
+    policy_components: int = 1
+    """1: the paper's policy, one diagonal Gaussian (``"loc"``, ``"scale"`` of shape (..., A)).
+    K > 1: a mixture of K Gaussians (:mod:`occrl.modules.mixture_policy`): ``"loc"`` and
+    ``"scale"`` of shape (..., K, A) and ``"mixture_logits"`` (..., K)."""
     detail_channels: int = 0
     """0: the paper's encoder on ``image_size`` pixels. > 0: the paper's encoder on every other
     pixel plus a detail branch of that many channels on all of them
@@ -81,6 +88,8 @@ class OccNetConfig:
     2 x 2: the ``"fine"`` preset's 128 x 128 window."""
 
     def __post_init__(self) -> None:
+        if self.policy_components < 1:
+            raise ValueError(f"policy_components must be >= 1 (1: the paper's Gaussian policy), got {self.policy_components}")
         if self.detail_channels < 0:
             raise ValueError(f"detail_channels must be >= 0, got {self.detail_channels}")
         factor = 2 ** len(self.conv_channels) * (2 if self.detail_channels else 1)
@@ -100,6 +109,9 @@ PRESETS: dict[str, OccNetConfig] = {
     # on every other pixel plus a detail branch (docs/decisions.md, "what its image can tell it");
     # occrl.modules.with_finer_input turns a trained paper network into one that starts as it
     "fine": OccNetConfig(image_size=128, detail_channels=8),
+    # beyond the paper: the policy a mixture of 4 Gaussians, for teachers with several plans
+    # (occrl.modules.mixture_policy; with_mixture_policy turns a trained paper network into one)
+    "mixture": OccNetConfig(policy_components=4),
 }
 
 
@@ -134,17 +146,17 @@ class OccNet(nn.Module):
         self.encoder = TensorDictModule(encoder, in_keys=["pixels"], out_keys=["embed"])
         self.lstm = LSTMModule(input_size=encoder.out_features, hidden_size=config.lstm_hidden, in_key="embed", out_key="belief")
         self.trunk = TensorDictSequential(self.encoder, self.lstm)
-        head = TensorDictModule(
-            PolicyHead(config.lstm_hidden, config.policy_hidden, config.action_dim), in_keys=["belief"], out_keys=["loc", "scale"]
-        )
-        self.actor = ProbabilisticActor(
-            head,
-            in_keys=["loc", "scale"],
-            out_keys=["action"],
-            distribution_class=IndependentNormal,
-            return_log_prob=True,
-            log_prob_key="action_log_prob",
-        )
+        if config.policy_components == 1:
+            head_module: nn.Module = PolicyHead(config.lstm_hidden, config.policy_hidden, config.action_dim)
+            distribution: dict = {"in_keys": ["loc", "scale"], "distribution_class": IndependentNormal}
+        else:
+            head_module = MixturePolicyHead(config.lstm_hidden, config.policy_hidden, config.action_dim, config.policy_components)
+            distribution = {
+                "in_keys": {"loc": "loc", "scale": "scale", "mixture_logits": "mixture_logits"},
+                "distribution_class": GaussianMixture,
+            }
+        head = TensorDictModule(head_module, in_keys=["belief"], out_keys=list(POLICY_OUTPUTS[config.policy_components > 1]))
+        self.actor = ProbabilisticActor(head, out_keys=["action"], return_log_prob=True, log_prob_key="action_log_prob", **distribution)
         self.critic = ValueOperator(ValueHead(config.lstm_hidden, config.value_hidden), in_keys=["belief"])
         if config.heatmap:
             self.heatmap_head = TensorDictSequential(
@@ -159,11 +171,10 @@ class OccNet(nn.Module):
             self.heatmap_head = None
         self.policy = ProbabilisticActor(
             TensorDictSequential(self.trunk, head),
-            in_keys=["loc", "scale"],
             out_keys=["action"],
-            distribution_class=IndependentNormal,
             return_log_prob=True,
             log_prob_key="action_log_prob",
+            **distribution,
         )
         self.value = TensorDictSequential(self.trunk, self.critic)
         self.heatmap = TensorDictSequential(self.trunk, self.heatmap_head) if self.heatmap_head is not None else None

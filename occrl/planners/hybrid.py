@@ -26,7 +26,7 @@ from occrl.envs import world_constants as C
 from occrl.envs.perception import OBSERVATION_KEYS
 from occrl.modules.occnet import OccNet, require_recurrent_state
 from occrl.planners.recreate import WorldPool, recreate
-from occrl.planners.rhp import INFERENCE_BACKENDS, NetworkStepper, RHPResult, rhp_batched, rhp_sequential
+from occrl.planners.rhp import INFERENCE_BACKENDS, NetworkStepper, RHPResult, noise_dim, rhp_batched, rhp_sequential
 from occrl.planners.states import Root, generate_states
 
 __all__ = ["HybridPlanner", "select_root", "Decision"]
@@ -220,7 +220,7 @@ class HybridPlanner(TensorDictModuleBase):
     def rollouts(self, roots: list[Root], hidden) -> RHPResult:
         """The m x h roll-outs from every root of one world (Alg. 2), their noise drawn from the
         planner's generator; ``hidden``: that world's LSTM state, each (1, layers, H)."""
-        noise = torch.randn(len(roots), self.m, self.h, C.ACTION_DIM, generator=self.generator)
+        noise = torch.randn(len(roots), self.m, self.h, noise_dim(self.net), generator=self.generator)
         states = [r.state for r in roots]
         if self.batched:
             return rhp_batched(self.net, states, hidden, noise, self.gamma, self.rollout_min_scale, pool=self.pool, stepper=self.stepper)
@@ -237,7 +237,7 @@ class HybridPlanner(TensorDictModuleBase):
         for obs, heatmap in zip(observations, heatmaps):
             roots = self.roots(obs, heatmap)
             roots_per_world.append(roots)
-            noise.append(torch.randn(len(roots), self.m, self.h, C.ACTION_DIM, generator=self.generator))
+            noise.append(torch.randn(len(roots), self.m, self.h, noise_dim(self.net), generator=self.generator))
         counts = [len(roots) for roots in roots_per_world]
         owner = torch.from_numpy(np.repeat(np.arange(len(counts)), counts))
         states = [r.state for roots in roots_per_world for r in roots]

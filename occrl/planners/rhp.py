@@ -14,6 +14,7 @@ Both draw the policy's noise from the same tensor, so with the same seed they ch
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Sequence
 
@@ -24,7 +25,8 @@ from occrl.envs import world_constants as C
 from occrl.envs.observation import world_pixels
 from occrl.envs.robot_frame import DEFAULT_SIZE
 from occrl.envs.pymunk2d.world import ShelfWorld
-from occrl.modules.occnet import OccNet
+from occrl.modules.mixture_policy import mixture_action
+from occrl.modules.occnet import POLICY_OUTPUTS, OccNet
 from occrl.planners.recreate import RecreatedState, WorldPool, make_world
 
 __all__ = ["RHPResult", "rhp_batched", "rhp_sequential", "render_pixels", "NetworkStepper", "StepGraph", "INFERENCE_BACKENDS"]
@@ -70,18 +72,19 @@ class StepGraph(torch.nn.Module):
         super().__init__()
         self.encoder, self.lstm = net.encoder.module, net.lstm.lstm
         self.policy_head, self.value_head = net.actor.module[0].module, net.critic.module
+        self.policy_outputs = POLICY_OUTPUTS[net.config.policy_components > 1]  # the names of the head's outputs
 
     def step(self, pixels: torch.Tensor, h: torch.Tensor, c: torch.Tensor):
         """LSTMModule's one-step path (a time dimension of 1; state as (layers, B, H)) and the
-        policy head: belief, loc, scale and the state after the images."""
+        policy head: belief, the head's outputs (loc, scale, and a mixture's logits) and the
+        state after the images."""
         belief, (h_next, c_next) = self.lstm(self.encoder(pixels).unsqueeze(1), (h, c))
         belief = belief[:, -1]
-        loc, scale = self.policy_head(belief)
-        return belief, loc, scale, h_next, c_next
+        return belief, tuple(self.policy_head(belief)), h_next, c_next
 
     def forward(self, pixels: torch.Tensor, h: torch.Tensor, c: torch.Tensor):
-        belief, loc, scale, h_next, c_next = self.step(pixels, h, c)
-        return belief, loc, scale, self.value_head(belief).squeeze(-1), h_next, c_next
+        belief, policy, h_next, c_next = self.step(pixels, h, c)
+        return belief, *policy, self.value_head(belief).squeeze(-1), h_next, c_next
 
 
 class NetworkStepper:
@@ -140,11 +143,11 @@ class NetworkStepper:
         h, c = h.transpose(0, 1).contiguous(), c.transpose(0, 1).contiguous()  # LSTM layout (layers, B, H)
         if self.session is not None:
             feed = {"pixels": pixels.numpy(), "h": h.numpy(), "c": c.numpy()}
-            belief, loc, scale, value, h_next, c_next = (torch.from_numpy(x) for x in self.session.run(None, feed))
-            out = {"belief": belief, "loc": loc, "scale": scale, "value": value}
+            *outputs, h_next, c_next = (torch.from_numpy(x) for x in self.session.run(None, feed))
+            out = dict(zip(("belief", *self.graph.policy_outputs, "value"), outputs))
         else:
-            belief, loc, scale, h_next, c_next = self.graph.step(pixels, h, c)
-            out = {"belief": belief, "loc": loc, "scale": scale}
+            belief, policy, h_next, c_next = self.graph.step(pixels, h, c)
+            out = {"belief": belief, **dict(zip(self.graph.policy_outputs, policy))}
         if self.min_scale > 0:
             out["scale"] = out["scale"].clamp(min=self.min_scale)
         return out, h_next.transpose(0, 1), c_next.transpose(0, 1)
@@ -178,7 +181,7 @@ def _onnx_session(net: OccNet):
             (pixels, state, state),
             buffer,
             input_names=["pixels", "h", "c"],
-            output_names=["belief", "loc", "scale", "value", "h_next", "c_next"],
+            output_names=["belief", *graph.policy_outputs, "value", "h_next", "c_next"],
             dynamic_axes={"pixels": {0: "batch"}, "h": {1: "batch"}, "c": {1: "batch"}},
             dynamo=False,
         )
@@ -230,6 +233,46 @@ def _finish(returns: np.ndarray, first: np.ndarray, steps: int, paths: np.ndarra
     return RHPResult(first[ar, best], returns[ar, best], returns, first, steps, paths)
 
 
+def noise_dim(net: OccNet) -> int:
+    """Standard normal draws per roll-out step: one per action dimension, and for a mixture policy
+    one more that picks the component (:func:`rollout_action`).
+
+    Examples:
+        >>> from occrl.modules import make_occnet
+        >>> from occrl.planners.rhp import noise_dim
+        >>> noise_dim(make_occnet("paper")), noise_dim(make_occnet("mixture"))
+        (4, 5)
+    """
+    return net.config.action_dim + (net.config.policy_components > 1)
+
+
+def check_noise(net: OccNet, noise: torch.Tensor) -> None:
+    """``ValueError`` unless ``noise`` is (R, m, h, :func:`noise_dim`)."""
+    if noise.ndim != 4 or noise.shape[-1] != noise_dim(net):
+        raise ValueError(
+            f"noise must be (roots, m, h, {noise_dim(net)}) standard normal draws for this network "
+            f"({net.config.policy_components} policy component(s)), got shape {tuple(noise.shape)}"
+        )
+
+
+def rollout_action(out: dict[str, torch.Tensor], eps: torch.Tensor) -> torch.Tensor:
+    """The roll-outs' actions (B, A) from the network's outputs and standard normal draws ``eps``
+    (B, A), or (B, A + 1) for a mixture policy, whose last draw picks the component through the
+    normal distribution's CDF (a uniform; :func:`occrl.modules.mixture_policy.mixture_action`).
+
+    Examples:
+        >>> import torch
+        >>> from occrl.planners.rhp import rollout_action
+        >>> out = {"loc": torch.zeros(1, 4), "scale": torch.full((1, 4), 0.5)}
+        >>> rollout_action(out, torch.ones(1, 4)).tolist()
+        [[0.5, 0.5, 0.5, 0.5]]
+    """
+    if "mixture_logits" not in out:
+        return out["loc"] + out["scale"] * eps
+    uniform = 0.5 * (1.0 + torch.erf(eps[..., -1] / math.sqrt(2.0)))
+    return mixture_action(out["loc"], out["scale"], out["mixture_logits"], uniform, eps[..., :-1])
+
+
 def rhp_batched(
     net: OccNet,
     roots: Sequence[RecreatedState],
@@ -263,6 +306,7 @@ def rhp_batched(
         ((2, 4), (2,), 8)
     """
     R, m, depth, _ = noise.shape
+    check_noise(net, noise)
     size = net.config.image_size
     stepper = stepper if stepper is not None else NetworkStepper(net, min_scale)
     rollout_states = [root for root in roots for _ in range(m)]
@@ -276,7 +320,7 @@ def rhp_batched(
     out, h, c = stepper.step(render_pixels(worlds[::m], size), h0, c0)
     out = {key: value.repeat_interleave(m, dim=0) for key, value in out.items()}
     h, c = h.repeat_interleave(m, dim=0), c.repeat_interleave(m, dim=0)
-    eps = noise.reshape(n, depth, 4)
+    eps = noise.reshape(n, depth, noise.shape[-1])
     ret = np.zeros(n)
     alive = np.ones(n, dtype=bool)
     first = np.zeros((n, 4))
@@ -285,7 +329,7 @@ def rhp_batched(
     discount = 1.0
     steps = 0
     for j in range(depth):
-        action = (out["loc"] + out["scale"] * eps[:, j]).clamp(-1.0, 1.0).numpy().astype(np.float64)
+        action = rollout_action(out, eps[:, j]).clamp(-1.0, 1.0).numpy().astype(np.float64)
         if j == 0:
             first = action.copy()
         for k in np.flatnonzero(alive):
@@ -339,6 +383,7 @@ def rhp_sequential(
         (True, True)
     """
     R, m, depth, _ = noise.shape
+    check_noise(net, noise)
     size = net.config.image_size
     stepper = NetworkStepper(net, min_scale)
     returns = np.zeros((R, m))
@@ -352,7 +397,7 @@ def rhp_sequential(
             out, h, c = stepper.step(render_pixels([world], size), hidden[0], hidden[1])
             ret, discount, terminal = 0.0, 1.0, False
             for j in range(depth):
-                action = (out["loc"] + out["scale"] * noise[r, i, j]).clamp(-1.0, 1.0).numpy().astype(np.float64)[0]
+                action = rollout_action(out, noise[r, i, j][None]).clamp(-1.0, 1.0).numpy().astype(np.float64)[0]
                 if j == 0:
                     first[r, i] = action
                 outcome = world.step(action)
