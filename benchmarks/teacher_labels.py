@@ -27,7 +27,7 @@ from occrl.envs import make_env
 from occrl.modules.weights import load_weights
 from occrl.pretrained import weights_file
 from occrl.training.dagger import OnlineTeacherPolicy
-from occrl.training.trainer import HIERARCHICAL_TEACHER
+from occrl.training.teachers import HIERARCHICAL_TEACHER
 
 
 def main() -> None:

@@ -12,7 +12,8 @@ One iteration, top to bottom:
 5. log, feed the curriculum with the finished episodes, checkpoint every few minutes.
 
 The collector lives in :mod:`occrl.training.collection`, the update of each phase in
-:mod:`occrl.training.learner`; :meth:`Trainer.train` is the loop.
+:mod:`occrl.training.learner`, the imitation teachers in :mod:`occrl.training.teachers`;
+:meth:`Trainer.train` is the loop.
 """
 
 from __future__ import annotations
@@ -28,8 +29,6 @@ import numpy as np
 import torch
 from tensordict import TensorDictBase
 
-from occrl.baselines.clearing import ClearingRetriever
-from occrl.baselines.observed_clearing import ObservedClearingRetriever
 from occrl.baselines.scripted import ScriptedRetriever
 from occrl.envs.episodes import run_episodes, task_scenes
 from occrl.modules import make_occnet
@@ -43,7 +42,6 @@ from occrl.training.cpu_time import tree_cpu_seconds
 from occrl.training.curriculum import Curriculum
 from occrl.training.dagger import (
     ExpertMixPolicy,
-    OnlineTeacherPolicy,
     RetrievalTakeover,
     label_with_expert,
     label_with_planner,
@@ -62,19 +60,13 @@ from occrl.training.run_folder import (
     truncate_metrics,
 )
 from occrl.training.stats import episode_stats, successful_episode_frames
+from occrl.training.teachers import collection_policy, make_expert, teacher_network
 
 __all__ = ["Trainer", "hybrid_validation_success", "VALIDATION_SEED_BASE"]
 
 logger = logging.getLogger(__name__)
 
 VALIDATION_SEED_BASE = 20_000_000  # hybrid-promotion tasks (held-out evaluation starts at 10_000_000)
-# the hierarchical teacher: closed-loop (re-plans when the learner leaves its plan: 1 cm / 10 degrees),
-# 1 s per OMPL query, no episode time limit (labels, not a timed evaluation), a Search that starts at
-# the nearer end and ends once the target is seen (on 16 stage-2 tasks it then solved 16, with the
-# paper's full left-to-right sweeps 11: docs/decisions.md)
-HIERARCHICAL_TEACHER = dict(
-    plan_seconds=1.0, follow_tolerance=(0.01, math.radians(10.0)), time_limit=1e6, sweep_from="nearest", stop_when_located=True
-)
 
 
 def hybrid_validation_success(net, stage: int, tasks: int, noise: float = 0.0) -> float:
@@ -119,7 +111,7 @@ class Trainer:
         promotion_check: Callable[..., float] = hybrid_validation_success,
     ) -> None:
         config.validate()
-        teacher_net = self._teacher_net(config.teacher_weights) if config.teacher_weights else None
+        teacher_net = teacher_network(config.teacher_weights) if config.teacher_weights else None
         self.config = config
         self.promotion_check = promotion_check
         self.ray_address = ray_address  # where the "ray" collector runs (None: a local Ray runtime)
@@ -154,17 +146,7 @@ class Trainer:
         self.frames = 0
         self.train_seconds = 0.0
         self.cpu_seconds: float | None = 0.0  # CPU of the run's process tree (tree_cpu_seconds); None: not measured from the start
-        # the hybrid-acting teacher plans on the live network; planners are reseeded every iteration
-        if config.imitation_teacher == "hybrid-acting":
-            planning_net = self.acting_net if teacher_net is None else teacher_net
-            self.expert = HybridPlanner(planning_net, m=4, h=4, seed=self.seed, inference=config.teacher_inference, batch_worlds=True)
-            if config.retrieval_takeover > 0:  # a retriever acts in a share of the retrievals
-                taker = self._teacher(config.takeover_retriever)
-                self.expert = RetrievalTakeover(self.expert, taker, config.retrieval_takeover, seed=self.seed, at=config.takeover_at)
-        elif config.imitation_teacher == "self":
-            self.expert = None  # the learner acts and labels
-        else:
-            self.expert = self._teacher(config.imitation_teacher)
+        self.expert = make_expert(config, self.acting_net, self.seed, teacher_net)
         self.retriever = ScriptedRetriever()  # labels the target-in-view steps (retrieval_labels="scripted")
         for leftover in self.run_dir.glob("*.tmp"):  # a write a crash interrupted; its target is intact
             leftover.unlink()
@@ -253,49 +235,7 @@ class Trainer:
         """Stop the collector (its worker processes or Ray actors)."""
         self.collection.close()
 
-    def _make_policy(self):
-        """What the collector runs: the learner's policy, mixed with or labelled by the teacher
-        during imitation."""
-        c = self.config
-        if c.imitation_iters > 0 and c.imitation_teacher == "hierarchical":
-            kinds = None if c.teacher_label_kinds == "all" else tuple(c.teacher_label_kinds.split(","))
-            return OnlineTeacherPolicy(self.acting_net.policy, self.expert, 0.0, label_kinds=kinds)
-        if c.imitation_iters > 0 and c.imitation_teacher == "clearing-observed":
-            return OnlineTeacherPolicy(self.acting_net.policy, self.expert, 0.0, from_first_sight=True)
-        if c.imitation_iters > 0 and c.imitation_teacher != "self":
-            return ExpertMixPolicy(self.acting_net.policy, self.expert, 0.0)
-        return self.acting_net.policy
-
     # ------------------------------------------------------------------ one iteration
-    @staticmethod
-    def _teacher_net(value: str):
-        """The fixed network a "hybrid-acting" teacher plans with (``teacher_weights``): a weights
-        file or a shipped network's name; it must have the heat-map head."""
-        from occrl.pretrained import weights_file
-
-        path = weights_file(value)
-        if not Path(path).is_file():
-            from occrl.pretrained import available
-
-            raise ValueError(f"teacher_weights {value!r} is neither a weights file nor a shipped network ({available()})")
-        net = load_weights(path)
-        if not net.config.heatmap:
-            raise ValueError(f"teacher_weights {value!r} has no heat-map head; the hybrid planner needs one")
-        logger.info("the hybrid-acting teacher plans with the fixed network %s (sha256 %s)", path, file_sha256(path)[:12])
-        return net
-
-    def _teacher(self, name: str):
-        """The teacher or taker-over that is not the hybrid planner: the hierarchical planner (with
-        the teacher's settings), the clearing retriever (privileged, or deciding from observations),
-        or the privileged scripted one (otherwise)."""
-        if name == "hierarchical":
-            from occrl.baselines.hierarchical import HierarchicalPlanner  # needs OMPL
-
-            return HierarchicalPlanner(seed=self.seed, replan_inside=self.config.teacher_replan_inside, **HIERARCHICAL_TEACHER)
-        if name == "clearing-observed":
-            return ObservedClearingRetriever()
-        return ClearingRetriever() if name == "clearing" else ScriptedRetriever()
-
     def _collect(self) -> TensorDictBase:
         """One batch; when a Ray worker dies the collector is rebuilt and the iteration repeated
         (every iteration is seeded afresh, so the repeat gives the batch the lost one would have)."""
@@ -322,7 +262,7 @@ class Trainer:
                 )
 
     def _collect_once(self) -> TensorDictBase:
-        self.collection.ensure(self.curriculum.stage, self._make_policy)
+        self.collection.ensure(self.curriculum.stage, lambda: collection_policy(self.config, self.acting_net.policy, self.expert))
         it_seed = self.seed * 1_000_003 + self.iteration
         torch.manual_seed(it_seed)
         beta = self._beta()
