@@ -48,7 +48,7 @@ from occrl.envs.scene import Scene
 
 # the shelf geometry (gripper_polygons, wall_polygons, inverse_pose, beyond_walls) lives in
 # occrl.envs.shelf_geometry, the fingers' (grasp_candidate and where fingers stop) in occrl.envs.pymunk2d.fingers
-__all__ = ["ShelfWorld", "grasp_candidate"]
+__all__ = ["ShelfWorld"]
 
 logger = logging.getLogger(__name__)
 
