@@ -163,16 +163,11 @@ def with_mixture_policy(net, components: int = 4, spread: float = 0.05, seed: in
         raise RuntimeError(f"the paper network's weights do not map onto the mixture: {differ}")
     mix.load_state_dict({k: (state[k] if k in differ else own[k]) for k in state})
     A, K = net.config.action_dim, int(components)
-    w, b = head_old.weight, head_old.bias  # rows: A means, then A standard deviations
-    new_w = torch.zeros_like(head_new.weight)
-    new_b = torch.zeros_like(head_new.bias)
-    for k in range(K):
-        new_w[k * 2 * A : (k + 1) * 2 * A] = w
-        new_b[k * 2 * A : (k + 1) * 2 * A] = b
+    # rows of the new layer: per component A means and A standard deviations (the old layer's rows), then K logits (zero)
+    head_new.weight.zero_()
+    head_new.bias.zero_()
+    head_new.weight[: K * 2 * A] = head_old.weight.repeat(K, 1)
+    head_new.bias[: K * 2 * A] = head_old.bias.repeat(K)
     generator = torch.Generator().manual_seed(int(seed))
-    offsets = spread * torch.randn(K, A, generator=generator)
-    for k in range(K):
-        new_b[k * 2 * A : k * 2 * A + A] += offsets[k]
-    head_new.weight.copy_(new_w)
-    head_new.bias.copy_(new_b)
+    head_new.bias[: K * 2 * A].view(K, 2 * A)[:, :A] += spread * torch.randn(K, A, generator=generator)
     return mix.eval()
