@@ -150,6 +150,7 @@ def seeded_task_env(
     world: str = "pymunk",
     size: int = DEFAULT_SIZE,
     replicate: int = 0,
+    remembered_detections: bool = False,
 ):
     """The env of a batch of tasks, with the env and the decision maker seeded by the task seeds:
     what :func:`run_episodes` runs, and what a replay of one of its episodes must build.
@@ -176,6 +177,7 @@ def seeded_task_env(
         heatmap_target=heatmap_target,
         world=world,
         size=size,
+        remembered_detections=remembered_detections,
     )
     for p in primers:
         env.append_transform(p.clone() if hasattr(p, "clone") else p)
@@ -213,9 +215,11 @@ def run_episodes(
     world: str = "pymunk",
     size: int = DEFAULT_SIZE,
     replicate: int = 0,
+    remembered_detections: bool = False,
 ) -> list[EpisodeResult]:
     """Run ``policy`` once on each scene (batches of ``batch_size`` worlds stepped together);
-    ``replicate`` > 0 draws the decision maker's randomness anew (:func:`decision_seed`).
+    ``replicate`` > 0 draws the decision maker's randomness anew (:func:`decision_seed`);
+    ``remembered_detections`` and ``size`` make the env a network needs (``make_env``).
 
     Success requires retrieval in under 50 actions and under 2 minutes, with nothing dropped.
     The batch stops when each of its worlds has ended its episode (a world that ended is not
@@ -234,7 +238,7 @@ def run_episodes(
     for start in range(0, len(scenes), batch_size):
         chunk = list(scenes[start : start + batch_size])
         chunk_seeds = list(seeds[start : start + batch_size])
-        env = seeded_task_env(policy, chunk, chunk_seeds, noise, primers, heatmap_target, world, size, replicate)
+        env = seeded_task_env(policy, chunk, chunk_seeds, noise, primers, heatmap_target, world, size, replicate, remembered_detections)
         t = time.time()
         with torch.no_grad(), set_exploration_type(exploration):
             td = env.rollout(C.MAX_EPISODE_STEPS, policy, break_when_any_done=False, break_when_all_done=True)

@@ -8,6 +8,7 @@ from typing import Sequence
 from torchrl.envs import Compose, InitTracker, StepCounter, TransformedEnv
 
 from occrl.envs import world_constants as C
+from occrl.envs.remembered import RememberedDetections
 from occrl.envs.robot_frame import DEFAULT_FORWARD_OFFSET, DEFAULT_SIZE, DEFAULT_WINDOW
 from occrl.envs.scene import Scene
 from occrl.envs.shelf_env import ShelfEnv
@@ -21,6 +22,7 @@ def observation_transforms(
     size: int = DEFAULT_SIZE,
     forward_offset: float = DEFAULT_FORWARD_OFFSET,
     heatmap_target: bool = True,
+    remembered_detections: bool = False,
 ) -> list:
     """The transforms that turn detections into the network input (and its heat-map label).
 
@@ -33,7 +35,8 @@ def observation_transforms(
         >>> env.reset()["pixels"].shape
         torch.Size([1, 3, 64, 64])
     """
-    ts = [OcclusionRender(), RobotCentricCrop(window=window, size=size, forward_offset=forward_offset)]
+    ts = [RememberedDetections()] if remembered_detections else []
+    ts += [OcclusionRender(), RobotCentricCrop(window=window, size=size, forward_offset=forward_offset)]
     if heatmap_target:
         ts.append(HeatmapTarget(window=window, size=size, forward_offset=forward_offset))
     return ts
@@ -52,6 +55,7 @@ def make_env(
     forward_offset: float = DEFAULT_FORWARD_OFFSET,
     heatmap_target: bool = True,
     world: str = "pymunk",
+    remembered_detections: bool = False,
     **env_kwargs,
 ) -> TransformedEnv:
     """The standard pipeline: a batched env whose ``"pixels"`` entry is the 3x64x64 network input.
@@ -63,6 +67,9 @@ def make_env(
         stage, noise, seed, scenes, num_objects, max_steps: see :class:`~occrl.envs.ShelfEnv`.
         window, size, forward_offset: the robot-centric window (metres, pixels, metres).
         heatmap_target: also render ``("privileged", "heatmap_target")`` for training.
+        remembered_detections: fill undetected object slots with the episode's earlier
+            detections before rendering (:class:`~occrl.envs.remembered.RememberedDetections`;
+            beyond the paper, off by default; a network's ``config.remembered_detections``).
         world: ``"pymunk"`` (the 2D world) or ``"mujoco"`` (:class:`~occrl.envs.MujocoShelfEnv`, the
             3D execution env with its default visibility ``"auto"``; needs ``pip install -e ".[mujoco]"``).
             (Called ``backend`` before 0.2.0, a name now kept for process executors; still accepted
@@ -108,5 +115,5 @@ def make_env(
         **env_kwargs,
     )
     transforms = [InitTracker(), StepCounter()]
-    transforms += observation_transforms(window, size, forward_offset, heatmap_target)
+    transforms += observation_transforms(window, size, forward_offset, heatmap_target, remembered_detections)
     return TransformedEnv(base, Compose(*transforms))

@@ -107,6 +107,9 @@ class Method:
     image_size: int = DEFAULT_SIZE
     """Pixels a side of the env's network input: the network's ``config.image_size`` (64; 128 for
     the ``"fine"`` preset); methods without a network ignore the image."""
+    remembered_detections: bool = False
+    """Whether the env draws earlier detections into the image: the network's
+    ``config.remembered_detections``."""
 
 
 def _net(name: str, weights: str | Path | None):
@@ -212,6 +215,7 @@ def make_method(
             [net.make_primer()],
             network=_network_record("occnet", weights),
             image_size=net.config.image_size,
+            remembered_detections=net.config.remembered_detections,
         )
     if hybrid is not None:
         from occrl.planners import HybridPlanner
@@ -224,6 +228,7 @@ def make_method(
             [net.make_primer()],
             network=_network_record("occnet", weights),
             image_size=net.config.image_size,
+            remembered_detections=net.config.remembered_detections,
         )
     if name == "hierarchical":
         from occrl.baselines.hierarchical import HierarchicalPlanner
@@ -250,5 +255,6 @@ def make_method(
             ExplorationType.DETERMINISTIC,
             network=_network_record(net_name, weights),
             image_size=net.config.image_size,
+            remembered_detections=net.config.remembered_detections,
         )
     raise ValueError(f"unknown method {name!r}; available: {METHODS} (or any hybrid-MxH / hybrid-lim-MxH / hybrid-ompl-MxH, m and h >= 1)")

@@ -119,7 +119,14 @@ def rollout_tasks(
         (torch.Size([2, 5]), True)
     """
     env = seeded_task_env(
-        method.policy, task_scenes(stage, seeds), seeds, noise, method.primers, size=method.image_size, replicate=replicate
+        method.policy,
+        task_scenes(stage, seeds),
+        seeds,
+        noise,
+        method.primers,
+        size=method.image_size,
+        replicate=replicate,
+        remembered_detections=method.remembered_detections,
     )
     with torch.no_grad(), set_exploration_type(method.exploration):
         return env.rollout(steps, method.policy, break_when_any_done=False)
@@ -176,6 +183,7 @@ def _run_chunk(args) -> list[EpisodeResult]:
         world=world,
         size=m.image_size,
         replicate=replicate,
+        remembered_detections=m.remembered_detections,
     )
 
 

@@ -402,7 +402,13 @@ def sweep_films(out: str | Path, method: str, solved: int = 3, failed: int = 1, 
     for e in wins + losses:
         seed = int(e["seed"])
         env = seeded_task_env(
-            m.policy, task_scenes(SCENE_STAGE, [seed], int(point["value"])), [seed], _point_noise(point), m.primers, size=m.image_size
+            m.policy,
+            task_scenes(SCENE_STAGE, [seed], int(point["value"])),
+            [seed],
+            _point_noise(point),
+            m.primers,
+            size=m.image_size,
+            remembered_detections=m.remembered_detections,
         )
         decisions = getattr(m.policy, "decisions", None)
         if decisions is not None:

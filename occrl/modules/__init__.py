@@ -2,7 +2,7 @@
 
 from occrl.modules.encoder import ConvEncoder
 from occrl.modules.heads import HeatmapHead, PolicyHead, ValueHead
-from occrl.modules.occnet import PRESETS, OccNet, OccNetConfig, make_occnet
+from occrl.modules.occnet import PRESETS, OccNet, OccNetConfig, make_occnet, with_remembered_detections
 from occrl.modules.finer_input import with_finer_input
 from occrl.modules.mixture_policy import GaussianMixture, MixturePolicyHead, with_mixture_policy
 
@@ -19,4 +19,5 @@ __all__ = [
     "MixturePolicyHead",
     "GaussianMixture",
     "with_mixture_policy",
+    "with_remembered_detections",
 ]

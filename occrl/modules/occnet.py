@@ -12,7 +12,7 @@ another head reading ``"belief"``) and keep the rest.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import torch
 from tensordict.nn import TensorDictModule, TensorDictSequential
@@ -86,6 +86,12 @@ class OccNetConfig:
     pixel plus a detail branch of that many channels on all of them
     (:class:`~occrl.modules.ConvEncoder`), and the heat-map decoded at half the size and repeated
     2 x 2: the ``"fine"`` preset's 128 x 128 window."""
+    remembered_detections: bool = False
+    """False: the paper's image, the objects detected now. True: the image also draws the objects
+    detected earlier in the episode where they were last seen
+    (:class:`~occrl.envs.remembered.RememberedDetections`; beyond the paper): the env that feeds
+    the network must be made with ``make_env(remembered_detections=True)``, as training and
+    ``occrl eval`` make it from this setting."""
 
     def __post_init__(self) -> None:
         if self.policy_components < 1:
@@ -112,6 +118,9 @@ PRESETS: dict[str, OccNetConfig] = {
     # beyond the paper: the policy a mixture of 4 Gaussians, for teachers with several plans
     # (occrl.modules.mixture_policy; with_mixture_policy turns a trained paper network into one)
     "mixture": OccNetConfig(policy_components=4),
+    # beyond the paper: the image also draws the objects detected earlier in the episode
+    # (occrl.envs.remembered); with_remembered_detections turns a trained paper network into one
+    "remembered": OccNetConfig(remembered_detections=True),
 }
 
 
@@ -185,6 +194,24 @@ class OccNet(nn.Module):
 
     def num_parameters(self) -> int:
         return sum(p.numel() for p in self.parameters())
+
+
+def with_remembered_detections(net: OccNet) -> OccNet:
+    """A copy of ``net`` (the same weights) that reads images with remembered detections drawn in
+    (``config.remembered_detections``; the ``"remembered"`` preset from a paper network). Only the
+    env that feeds it changes: the weights are the trained network's, as a start for training.
+
+    Examples:
+        >>> import torch
+        >>> from occrl.modules import make_occnet, with_remembered_detections
+        >>> net = make_occnet("paper")
+        >>> copy = with_remembered_detections(net)
+        >>> copy.config.remembered_detections, all(torch.equal(a, b) for a, b in zip(net.state_dict().values(), copy.state_dict().values()))
+        (True, True)
+    """
+    out = OccNet(replace(net.config, remembered_detections=True))
+    out.load_state_dict(net.state_dict())
+    return out.eval()
 
 
 def make_occnet(preset: str | OccNetConfig = "paper", heatmap: bool = True, **overrides) -> OccNet:

@@ -45,7 +45,14 @@ class SeededCollector(Collector):
 def training_env(stage: int, noise: float, num_envs: int, seed: int, primer_net):
     """The env a collector worker steps: ``num_envs`` worlds of ``stage`` with the network's
     LSTM-state primer and image size."""
-    env = make_env(batch_size=num_envs, stage=stage, noise=noise, seed=seed, size=primer_net.config.image_size)
+    env = make_env(
+        batch_size=num_envs,
+        stage=stage,
+        noise=noise,
+        seed=seed,
+        size=primer_net.config.image_size,
+        remembered_detections=primer_net.config.remembered_detections,
+    )
     return env.append_transform(primer_net.make_primer())
 
 

@@ -76,7 +76,14 @@ def hybrid_validation_success(net, stage: int, tasks: int, noise: float = 0.0) -
     seeds = list(range(VALIDATION_SEED_BASE, VALIDATION_SEED_BASE + tasks))
     planner = HybridPlanner(net, m=4, h=4, seed=0)
     results = run_episodes(
-        planner, task_scenes(stage, seeds), seeds, noise, batch_size=1, primers=[net.make_primer()], size=net.config.image_size
+        planner,
+        task_scenes(stage, seeds),
+        seeds,
+        noise,
+        batch_size=1,
+        primers=[net.make_primer()],
+        size=net.config.image_size,
+        remembered_detections=net.config.remembered_detections,
     )
     return float(np.mean([r.success for r in results]))
 
