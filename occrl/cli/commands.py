@@ -51,7 +51,7 @@ def run_demo(args: argparse.Namespace) -> int:
     if method not in PRIVILEGED_LABELS and not args.weights and "occnet" not in available():
         print("no shipped network in this installation: showing the privileged scripted retriever instead")
         method = "scripted"
-    primers, size = [], None
+    primers, size, remembered = [], None, False
     if method in PRIVILEGED_LABELS:
         from occrl.eval.methods import make_method
 
@@ -64,7 +64,7 @@ def run_demo(args: argparse.Namespace) -> int:
         net = load_weights(checked_weights_file(args.weights)) if args.weights else load_pretrained("occnet")
         m, h = (int(v) for v in method.split("-")[-1].split("x"))
         policy = HybridPlanner(net, m=m, h=h, seed=args.seed)
-        primers, size = [net.make_primer()], net.config.image_size
+        primers, size, remembered = [net.make_primer()], net.config.image_size, net.config.remembered_detections
         card = model_card(args.weights or "occnet") or {"file": args.weights}
         label = f"hybrid planner {m}x{h} with network {card.get('summary', card)}"
     rows, frames_all = [], []
@@ -75,7 +75,7 @@ def run_demo(args: argparse.Namespace) -> int:
         extra = {"world": "mujoco", "record_camera": _gl_available()} if args.world == "mujoco" else {}
         if size is not None:  # the network's image size (the privileged methods read no image)
             extra["size"] = size
-        env = make_env(batch_size=1, scenes=[scene], heatmap_target=False, **extra)
+        env = make_env(batch_size=1, scenes=[scene], heatmap_target=False, remembered_detections=remembered, **extra)
         for p in primers:
             env.append_transform(p.clone())
         if hasattr(policy, "reseed"):
