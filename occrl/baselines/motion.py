@@ -15,6 +15,7 @@ import numpy as np
 
 from occrl.envs import world_constants as C
 from occrl.envs.geometry import polygons_overlap, transform_points
+from occrl.envs.remembered import STALE_OVERLAP  # one staleness rule for every memory of detections
 from occrl.envs.shelf_geometry import SHELF_WALLS, gripper_polygons, inverse_pose
 
 from occrl.baselines.hiding import probe_points
@@ -40,7 +41,6 @@ CLOSE = 1.0
 _WALL_BOXES = [(w[:, 0].min(), w[:, 0].max(), w[:, 1].min(), w[:, 1].max()) for w in SHELF_WALLS]
 STROKE_HALF = C.GRIPPER_STROKE / 2
 OUT_Y = -0.07  # gripper origin behind this line (and the heading within 45 deg): no part is in the shelf
-STALE_OVERLAP = 0.005  # a remembered object overlapping a fresher one or the gripper deeper than this is stale
 
 
 def steer_action(pose, target, grip: float) -> np.ndarray:
