@@ -80,7 +80,9 @@ def main() -> None:
     parser.add_argument("--weights", default=None, help="weights file or shipped network name (default: occnet)")
     parser.add_argument("--stage", type=int, default=2, choices=(1, 2, 3))
     parser.add_argument("--tasks", type=int, default=200)
-    parser.add_argument("--rhos", default="0,0.5,0.8,0.9,0.95", help="comma-separated AR(1) coefficients in (-1, 1); the first is the reference")
+    parser.add_argument(
+        "--rhos", default="0,0.5,0.8,0.9,0.95", help="comma-separated AR(1) coefficients in (-1, 1); the first is the reference"
+    )
     parser.add_argument("--match-drift", action="store_true", help="scale the draws by sqrt((1 - rho) / (1 + rho))")
     parser.add_argument("--out", default=None, help="write which tasks each rho solved to this JSON file")
     args = parser.parse_args()
@@ -103,7 +105,15 @@ def main() -> None:
         spread = math.sqrt((1 - rho) / (1 + rho)) if args.match_drift else 1.0
         policy = PersistentNoisePolicy(method.policy.net, rho, spread)
         results = run_episodes(
-            policy, scenes, seeds, 0.0, 16, method.primers, method.exploration, size=method.image_size, remembered_detections=method.remembered_detections
+            policy,
+            scenes,
+            seeds,
+            0.0,
+            16,
+            method.primers,
+            method.exploration,
+            size=method.image_size,
+            remembered_detections=method.remembered_detections,
         )
         solved[rho] = [r.success for r in results]
         n = sum(solved[rho])
@@ -113,7 +123,16 @@ def main() -> None:
         versus = "- | -" if rho == rhos[0] else f"{mine} / {theirs} | {mcnemar_p(mine, theirs):.3f}"
         print(f"| {rho:g} | {100 * n / args.tasks:.1f} % | {100 * lo:.1f}-{100 * hi:.1f} | {versus} |", flush=True)
     if args.out:
-        Path(args.out).write_text(json.dumps({"weights": args.weights, "stage": args.stage, "match_drift": args.match_drift, "solved": {str(k): v for k, v in solved.items()}}))
+        Path(args.out).write_text(
+            json.dumps(
+                {
+                    "weights": args.weights,
+                    "stage": args.stage,
+                    "match_drift": args.match_drift,
+                    "solved": {str(k): v for k, v in solved.items()},
+                }
+            )
+        )
 
 
 if __name__ == "__main__":

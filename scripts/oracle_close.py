@@ -57,7 +57,10 @@ class OracleClose(torch.nn.Module):
         action = tensordict.get("action").clone()
         for b, world in enumerate(self.worlds):
             holds_target = world.held is not None and world.held == world.target_index
-            graspable = not world.closed and grasp_candidate(world.gripper_pose(), world.opening, world.object_world_polygons())[0] == world.target_index
+            graspable = (
+                not world.closed
+                and grasp_candidate(world.gripper_pose(), world.opening, world.object_world_polygons())[0] == world.target_index
+            )
             wants = bool(action[b, 3] > 0)
             close = (holds_target or graspable) if self.mode == "oracle" else wants and (graspable or world.held is not None)
             self.changed += close != wants
@@ -83,7 +86,9 @@ def main() -> None:
     seeds = [EVAL_SEED_BASE + i for i in range(args.tasks)]
     scenes = task_scenes(args.stage, seeds)
     solved: dict[str, list[bool]] = {}
-    print(f"network {network_name(args.weights or 'occnet')}, stage {args.stage}, {args.tasks} held-out tasks: own sampled policy, gripper command per mode")
+    print(
+        f"network {network_name(args.weights or 'occnet')}, stage {args.stage}, {args.tasks} held-out tasks: own sampled policy, gripper command per mode"
+    )
     print(f"| mode | success | 95 % interval | only this / only {modes[0]} | McNemar p | commands changed |")
     print("| --- | --- | --- | --- | --- | --- |")
     for mode in modes:
@@ -92,7 +97,13 @@ def main() -> None:
         for start in range(0, args.tasks, 16):  # batches of 16 worlds, as occrl eval runs them
             batch = slice(start, start + 16)
             env = seeded_task_env(
-                policy, scenes[batch], seeds[batch], 0.0, method.primers, size=method.image_size, remembered_detections=method.remembered_detections
+                policy,
+                scenes[batch],
+                seeds[batch],
+                0.0,
+                method.primers,
+                size=method.image_size,
+                remembered_detections=method.remembered_detections,
             )
             policy.worlds = env.base_env.worlds
             with torch.no_grad(), set_exploration_type(method.exploration):

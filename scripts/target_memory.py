@@ -76,7 +76,14 @@ def main() -> None:
     for start in range(0, args.tasks, 16):
         batch = slice(start, start + 16)
         env = seeded_task_env(
-            policy, scenes[batch], seeds[batch], 0.0, method.primers, True, size=method.image_size, remembered_detections=method.remembered_detections
+            policy,
+            scenes[batch],
+            seeds[batch],
+            0.0,
+            method.primers,
+            True,
+            size=method.image_size,
+            remembered_detections=method.remembered_detections,
         )
         with torch.no_grad(), set_exploration_type(method.exploration):
             td = env.rollout(C.MAX_EPISODE_STEPS, policy, break_when_any_done=False, break_when_all_done=True)

@@ -72,7 +72,9 @@ class RememberedDetections(Transform):
         if "is_init" not in next_tensordict.keys():
             raise KeyError("RememberedDetections needs 'is_init' (put torchrl's InitTracker before it; make_env does)")
         if next_tensordict.batch_dims != 1:
-            raise ValueError(f"RememberedDetections takes one observation per world, batch (B,); got batch {tuple(next_tensordict.batch_size)}")
+            raise ValueError(
+                f"RememberedDetections takes one observation per world, batch (B,); got batch {tuple(next_tensordict.batch_size)}"
+            )
         td = next_tensordict
         objects = td.get("objects")
         now = {k: objects.get(k).cpu().numpy().copy() for k in SLOT_KEYS}

@@ -25,7 +25,16 @@ from occrl.modules.encoder import ConvEncoder
 from occrl.modules.heads import HeatmapHead, PolicyHead, ValueHead
 from occrl.modules.mixture_policy import GaussianMixture, MixturePolicyHead
 
-__all__ = ["OccNetConfig", "OccNet", "make_occnet", "PRESETS", "RECURRENT_KEYS", "POLICY_OUTPUTS", "require_recurrent_state"]
+__all__ = [
+    "OccNetConfig",
+    "OccNet",
+    "make_occnet",
+    "with_remembered_detections",
+    "PRESETS",
+    "RECURRENT_KEYS",
+    "POLICY_OUTPUTS",
+    "require_recurrent_state",
+]
 
 # what a recurrent decision maker reads besides the observation: the LSTM's state entries (added by
 # the net's primer) and the episode-start flag (added by TorchRL's InitTracker, which make_env adds)
