@@ -130,6 +130,9 @@ PRESETS: dict[str, OccNetConfig] = {
     # beyond the paper: the image also draws the objects detected earlier in the episode
     # (occrl.envs.remembered); with_remembered_detections turns a trained paper network into one
     "remembered": OccNetConfig(remembered_detections=True),
+    # beyond the paper: twice the channels, LSTM units and hidden units (occrl.modules.wider;
+    # with_wider_network turns a trained paper network into one that computes the same)
+    "wide": OccNetConfig(conv_channels=(16, 16, 32), lstm_hidden=256, policy_hidden=(256, 256), value_hidden=(256, 128)),
 }
 
 
