@@ -124,12 +124,20 @@ def with_wider_network(
     }
     for name, (new_sizes, old_sizes) in sizes.items():
         if len(new_sizes) != len(old_sizes) or any(n < o for n, o in zip(new_sizes, old_sizes)):
-            raise ValueError(f"{name} must have the old network's {len(old_sizes)} layer(s), each at least as wide as {old_sizes}; got {new_sizes}")
+            raise ValueError(
+                f"{name} must have the old network's {len(old_sizes)} layer(s), each at least as wide as {old_sizes}; got {new_sizes}"
+            )
     if cfg.policy_components != 1:
         raise ValueError("with_wider_network widens the paper's Gaussian policy head; a mixture policy is not supported")
     torch.manual_seed(seed)
     wide = OccNet(
-        replace(cfg, conv_channels=tuple(conv_channels), lstm_hidden=lstm_hidden, policy_hidden=tuple(policy_hidden), value_hidden=tuple(value_hidden))
+        replace(
+            cfg,
+            conv_channels=tuple(conv_channels),
+            lstm_hidden=lstm_hidden,
+            policy_hidden=tuple(policy_hidden),
+            value_hidden=tuple(value_hidden),
+        )
     )
     old_encoder, new_encoder = _only(net, ConvEncoder), _only(wide, ConvEncoder)
     _grow_encoder(new_encoder, old_encoder)
