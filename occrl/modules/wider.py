@@ -129,16 +129,17 @@ def with_wider_network(
             )
     if cfg.policy_components != 1:
         raise ValueError("with_wider_network widens the paper's Gaussian policy head; a mixture policy is not supported")
-    torch.manual_seed(seed)
-    wide = OccNet(
-        replace(
-            cfg,
-            conv_channels=tuple(conv_channels),
-            lstm_hidden=lstm_hidden,
-            policy_hidden=tuple(policy_hidden),
-            value_hidden=tuple(value_hidden),
+    with torch.random.fork_rng():  # the new units' initialisation from ``seed``, the caller's RNG untouched
+        torch.manual_seed(seed)
+        wide = OccNet(
+            replace(
+                cfg,
+                conv_channels=tuple(conv_channels),
+                lstm_hidden=lstm_hidden,
+                policy_hidden=tuple(policy_hidden),
+                value_hidden=tuple(value_hidden),
+            )
         )
-    )
     old_encoder, new_encoder = _only(net, ConvEncoder), _only(wide, ConvEncoder)
     _grow_encoder(new_encoder, old_encoder)
     # the encoder's flattened output is channel-major: the old channels' features come first
