@@ -127,6 +127,16 @@ NETWORKS = [
         "results/success-labels/takeover/stochastic-gen_s2_iteration50.json",
         "results/success-labels/takeover/hybrid-4x4_s2_iteration50.json",
     ),
+    Network(
+        "mixture of 4, converted from occnet-takeover",
+        "results/mixture-hier-inside/stochastic-gen_s2_200tasks_start.json",
+        "results/mixture-hier-inside/hybrid-4x4_s2_start.json",
+    ),
+    Network(
+        "wide (4x the parameters), self-imitation 100",
+        "results/wide/self-imitation-bc-only/stochastic-gen_s2_iteration100.json",
+        "results/wide/self-imitation-bc-only/hybrid-4x4_s2_iteration100.json",
+    ),
 ]
 
 
