@@ -60,7 +60,16 @@ def main() -> None:
         policy.reset()  # a new task (run_episodes reseeds both parts with the task seed)
         policy.handovers = before
         handed.append(None)
-        results += run_episodes(policy, task_scenes(args.stage, [seed]), [seed], 0.0, 1, planner.primers, size=planner.image_size)
+        results += run_episodes(
+            policy,
+            task_scenes(args.stage, [seed]),
+            [seed],
+            0.0,
+            1,
+            planner.primers,
+            size=planner.image_size,
+            remembered_detections=planner.remembered_detections,
+        )
         handed[-1] = policy.handovers > before
     summary = summarize(results)
     lo, hi = summary["success_ci95"]

@@ -124,7 +124,16 @@ def main() -> None:
     # one world per task, as `occrl eval` runs the planners
     name = f"hybrid {'4 roll-outs to the end' if args.to_the_end else '4x4'} from the true {args.roots}"
     for seed in tqdm(seeds, desc=name, unit="task"):
-        results += run_episodes(planner, task_scenes(args.stage, [seed]), [seed], 0.0, 1, method.primers, size=method.image_size)
+        results += run_episodes(
+            planner,
+            task_scenes(args.stage, [seed]),
+            [seed],
+            0.0,
+            1,
+            method.primers,
+            size=method.image_size,
+            remembered_detections=method.remembered_detections,
+        )
     summary = summarize(results)
     lo, hi = summary["success_ci95"]
     print(

@@ -47,7 +47,17 @@ def main() -> None:
     for k in spreads:
         policy = NetPolicy(method.policy.net, stochastic=True, spread=k)
         # batches of 16 worlds, as occrl eval runs them
-        results = run_episodes(policy, scenes, seeds, 0.0, 16, method.primers, method.exploration, size=method.image_size)
+        results = run_episodes(
+            policy,
+            scenes,
+            seeds,
+            0.0,
+            16,
+            method.primers,
+            method.exploration,
+            size=method.image_size,
+            remembered_detections=method.remembered_detections,
+        )
         solved[k] = [r.success for r in results]
         episodes[str(k)] = [r.to_dict() for r in results]
     print(

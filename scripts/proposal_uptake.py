@@ -97,6 +97,7 @@ def main() -> None:
             primers=method.primers,
             exploration=method.exploration,
             size=method.image_size,
+            remembered_detections=method.remembered_detections,
         )
         records += planner.proposals
         solved[seed] = bool(result.success)

@@ -75,6 +75,7 @@ def time_method(name: str, objects: list[int], tasks: int, bar: tqdm) -> list[di
                 method.primers,
                 method.exploration,
                 size=method.image_size,
+                remembered_detections=method.remembered_detections,
             )
             if timer.calls != result.actions:
                 raise RuntimeError(f"{name} was asked {timer.calls} times for an episode of {result.actions} actions (task {seed})")

@@ -38,24 +38,27 @@ from occrl.training import load_weights, save_weights
 FIT_SEED_BASE = 40_000_000
 
 
-def acting_method(acting: str, weights: str | None, image_size: int) -> Method:
+def acting_method(acting: str, weights: str | None, image_size: int, remembered_detections: bool = False) -> Method:
     """The decision maker whose episodes the head is fitted on: ``stochastic-gen`` (the network's
     own sampled policy, what the paper's planner rolls out), any ``occrl eval`` method, or
     ``proposer`` (the hierarchical planner as ``hybrid-ompl-MxH`` runs it, acting itself)."""
     if acting == "proposer":
         from occrl.baselines.hybrid_ompl import make_proposer
 
-        return Method("proposer", make_proposer(), image_size=image_size)  # the images the fitted network reads
+        # the images the fitted network reads
+        return Method("proposer", make_proposer(), image_size=image_size, remembered_detections=remembered_detections)
     method = make_method(acting, weights)
     # a method without a network ignores the image; the fitted network reads images of its own size
-    return method if method.network is not None else dataclasses.replace(method, image_size=image_size)
+    if method.network is not None:
+        return method
+    return dataclasses.replace(method, image_size=image_size, remembered_detections=remembered_detections)
 
 
 def collect(net, weights: str | None, per_stage: int, batch: int = 64, acting: str = "stochastic-gen", stages=(1, 2, 3)) -> list[dict]:
     """Episodes of the acting decision maker, with ``net``'s beliefs along them (its trunk run over
     the episode's images; ``net`` is the network of ``weights`` whose head is fitted): beliefs,
     rewards, and whether each ended by termination."""
-    method = acting_method(acting, weights, net.config.image_size)
+    method = acting_method(acting, weights, net.config.image_size, net.config.remembered_detections)
     episodes = []
     start_time = time.time()
     for stage in stages:
