@@ -1,6 +1,7 @@
 """Where does the hybrid planner lose stage-2 tasks: in the search, or in the retrieval?
 
     python scripts/handover.py --stage 2 --tasks 200 [--weights W.pt] [--to scripted|clearing|clearing-observed|hierarchical] [--out F.json]
+    python scripts/handover.py --from stochastic-gen --to scripted ...   # the network's own policy searches
 
 The hybrid 4x4 planner acts from the start of each held-out task (the README's task seeds; the
 planner reseeded per task as `occrl eval` does, so up to the hand-over the episodes are those of
@@ -15,7 +16,9 @@ starts at the hand-over (its first observation is flagged ``is_init``). The plan
 keeps deciding underneath so that its LSTM state follows the real history (its actions are
 discarded after the hand-over). Prints success of the combination against the hybrid planner's
 own on the same tasks (from ``--baseline F.json`` of `occrl eval`, if given), and how many tasks
-were handed over at all. A diagnosis for issue 16 (docs/decisions.md); analysis only: the
+were handed over at all. ``--from stochastic-gen``: the network's own sampled policy searches
+instead of the planner (its episodes up to the hand-over those of `occrl eval --method
+stochastic-gen`). A diagnosis for issue 16 (docs/decisions.md); analysis only: the
 retriever reads what its kind reads (the scripted one privileged state).
 """
 
@@ -44,18 +47,20 @@ def main() -> None:
     parser.add_argument("--stage", type=int, default=2)
     parser.add_argument("--tasks", type=int, default=200)
     parser.add_argument("--weights", default=None, help="the planner's network: a weights file or a shipped name (default: occnet)")
+    parser.add_argument("--from", dest="searcher", default="hybrid-4x4", choices=("hybrid-4x4", "stochastic-gen"), help="who searches")
     parser.add_argument("--to", default="scripted", choices=("scripted", "clearing", "clearing-observed", "hierarchical"))
-    parser.add_argument("--baseline", default=None, help="an `occrl eval --out` file of hybrid 4x4 on the same tasks")
+    parser.add_argument("--baseline", default=None, help="an `occrl eval --out` file of the searcher alone on the same tasks")
     parser.add_argument("--out", default=None)
     args = parser.parse_args()
     torch.set_num_threads(1)
-    planner = make_method("hybrid-4x4", weights_file(args.weights))
+    planner = make_method(args.searcher, weights_file(args.weights))
+    label = "hybrid 4x4" if args.searcher == "hybrid-4x4" else args.searcher
     retriever = ObservedClearingRetriever() if args.to == "clearing-observed" else make_method(args.to).policy
     policy = SearchThenRetrieve(planner.policy, retriever)
     seeds = list(range(EVAL_SEED_BASE, EVAL_SEED_BASE + args.tasks))
     t0 = time.time()
     results, handed = [], []
-    for seed in tqdm(seeds, desc=f"hybrid 4x4 -> {args.to}", unit="task"):  # one world per task, as `occrl eval` runs the planners
+    for seed in tqdm(seeds, desc=f"{label} -> {args.to}", unit="task"):  # one world per task, as `occrl eval` runs the planners
         before = policy.handovers
         policy.reset()  # a new task (run_episodes reseeds both parts with the task seed)
         policy.handovers = before
@@ -74,11 +79,12 @@ def main() -> None:
     summary = summarize(results)
     lo, hi = summary["success_ci95"]
     print(
-        f"hybrid 4x4 -> {args.to} at the first detection, stage {args.stage}: {100 * summary['success_rate']:.1f} % "
+        f"{label} -> {args.to} at the first detection, stage {args.stage}: {100 * summary['success_rate']:.1f} % "
         f"({100 * lo:.1f}-{100 * hi:.1f}) of {len(results)} tasks; handed over in {policy.handovers}; {time.time() - t0:.0f} s"
     )
     report = {
         "stage": args.stage,
+        "from": args.searcher,
         "to": args.to,
         "weights": network_name(args.weights or "occnet"),
         "handovers": policy.handovers,

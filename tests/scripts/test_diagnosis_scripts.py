@@ -1,6 +1,7 @@
 """The analysis scripts behind "Why stage 2 stops here" (docs/experiments.md) run and report what they say."""
 
 import json
+import re
 import shutil
 import subprocess
 import sys
@@ -111,6 +112,16 @@ def test_handover_pairs_its_episodes_with_the_planners_own(tmp_path):
     # both stage-1 tasks are solved after the hand-over: one more than the recorded baseline
     assert "hybrid 4x4 -> scripted at the first detection, stage 1: 100.0 %" in out
     assert "the planner alone on the same 2 tasks: 50.0 %; the hand-over wins 1, loses 0 (McNemar p = 1.000)" in out
+
+
+def test_handover_from_the_networks_own_policy_keeps_its_episodes_until_the_hand_over(tmp_path):
+    baseline = tmp_path / "own.json"
+    _run("-m", "occrl.cli", "eval", "--method", "stochastic-gen", "--stage", "2", "--tasks", "12", "--workers", "1", "--out", str(baseline))
+    out = _run("scripts/handover.py", "--from", "stochastic-gen", "--stage", "2", "--tasks", "12", "--baseline", str(baseline))
+    assert "stochastic-gen -> scripted at the first detection, stage 2" in out
+    # the tasks whose target the policy never detects (2 of these 12) are the evaluation's episodes, step for step
+    never = re.search(r"tasks never handed over: (\d+), of them equal to the planner's own episode: (\d+)", out)
+    assert never is not None and int(never.group(1)) > 0 and never.group(1) == never.group(2)
 
 
 def test_detail_use_is_zero_for_a_network_just_converted(tmp_path):
