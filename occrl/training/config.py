@@ -119,7 +119,7 @@ class TrainConfig:
     self-imitation, its successful episodes cloned)."""
     label_episodes: str = "all"
     """Which episodes' frames are imitation labels with the teachers whose labels are the actions
-    taken ("self", "hybrid-acting"): "all", or "success" (only the frames of episodes that end in
+    taken ("self", "hybrid-acting", "clearing-observed"): "all", or "success" (only the frames of episodes that end in
     success within the batch; the others still train the value and heat-map heads). With "self"
     the cloned successes are a policy-gradient step on the success probability (beyond the paper:
     docs/decisions.md, "Cloning only successes")."""
@@ -238,10 +238,10 @@ class TrainConfig:
             raise ValueError(
                 f"takeover_retriever {self.takeover_retriever!r} / takeover_at {self.takeover_at!r} need retrieval_takeover > 0 (the share taken over)"
             )
-        if self.label_episodes != "all" and self.imitation_teacher not in ("self", "hybrid-acting"):
+        if self.label_episodes != "all" and self.imitation_teacher not in ("self", "hybrid-acting", "clearing-observed"):
             raise ValueError(
                 f"label_episodes={self.label_episodes!r} applies to the teachers whose labels are the actions taken "
-                f"('self', 'hybrid-acting'), not {self.imitation_teacher!r}"
+                f"('self', 'hybrid-acting', 'clearing-observed'), not {self.imitation_teacher!r}"
             )
         if self.imitation_teacher == "self" and self.label_episodes != "success":
             raise ValueError(
