@@ -3,10 +3,10 @@
     python scripts/noise_persistence.py --weights occnet-takeover --stage 2 --tasks 200 --rhos 0,0.5,0.8,0.9,0.95
     python scripts/noise_persistence.py --weights occnet-takeover --rhos 0,0.5,0.8,0.9 --match-drift
 
-``stochastic-gen`` on the held-out tasks, its normal draws made an AR(1) process per world:
-``z_t = rho z_{t-1} + sqrt(1 - rho^2) x_t`` (x_t the policy's own draws, from the same per-task
-generators; a mixture policy's component draw is carried the same way through its normal
-quantile), restarted at every episode start. Each action's distribution stays the policy's;
+``stochastic-gen`` on the held-out tasks, its normal draws made an AR(1) process per world
+(``NetPolicy(..., noise_correlation=rho)``): ``z_t = rho z_{t-1} + sqrt(1 - rho^2) x_t`` (x_t the
+policy's own draws, from the same per-task generators; a mixture policy's component draw is
+carried the same way through its normal quantile), restarted at every episode start. Each action's distribution stays the policy's;
 only successive actions share their draw, so with rho near 1 the policy keeps to one sampled
 "plan" for many actions. rho = 0 is ``occrl eval --method stochastic-gen`` exactly; negative rho
 makes successive draws cancel. ``--match-drift`` scales the spread by sqrt((1 - rho) / (1 + rho)),
@@ -22,57 +22,11 @@ import json
 import math
 from pathlib import Path
 
-import torch
-from torchrl.envs.utils import ExplorationType, set_exploration_type
-
 from occrl.baselines import NetPolicy
 from occrl.envs.episodes import run_episodes, task_scenes
 from occrl.eval.methods import make_method
 from occrl.eval.runner import EVAL_SEED_BASE, mcnemar_p, wilson_interval
-from occrl.modules.mixture_policy import mixture_action
 from occrl.pretrained import network_name, weights_file
-
-
-class PersistentNoisePolicy(NetPolicy):
-    """:class:`~occrl.baselines.NetPolicy` (sampled) whose normal draws follow an AR(1) process
-    with coefficient ``rho`` across the actions of an episode; ``spread`` scales the draws."""
-
-    def __init__(self, net, rho: float, spread: float = 1.0) -> None:
-        if not -1.0 < rho < 1.0:
-            raise ValueError(f"rho must lie in (-1, 1), got {rho}")
-        super().__init__(net, stochastic=True)
-        self.rho, self.draw_spread = rho, spread
-        self.previous: torch.Tensor | None = None
-
-    def reseed_worlds(self, seeds) -> None:
-        super().reseed_worlds(seeds)
-        self.previous = None
-
-    def forward(self, tensordict):
-        with set_exploration_type(ExplorationType.DETERMINISTIC):
-            tensordict = self.net.policy(tensordict)
-        loc, scale = tensordict.get("loc"), tensordict.get("scale")
-        mixture = self.net.config.policy_components > 1
-        shape = loc.shape[:-2] + loc.shape[-1:] if mixture else loc.shape
-        worlds, dim = int(torch.Size(shape[:-1]).numel()), shape[-1]
-        if len(self._generators) != worlds:
-            raise RuntimeError("PersistentNoisePolicy needs one generator per world (reseed_worlds)")
-        z = torch.stack([torch.randn(dim, generator=g) for g in self._generators])
-        if mixture:  # the component's uniform draw, as a normal quantile
-            u = torch.stack([torch.rand((), generator=g) for g in self._generators]).clamp(1e-7, 1 - 1e-7)
-            z = torch.cat([z, math.sqrt(2.0) * torch.erfinv(2 * u - 1)[:, None]], 1)
-        start = tensordict.get("is_init").reshape(worlds).bool()
-        if self.previous is not None and self.rho != 0.0:
-            z = torch.where(start[:, None], z, self.rho * self.previous + math.sqrt(1 - self.rho**2) * z)
-        self.previous = z
-        eps = z[:, :dim].reshape(shape).to(loc.dtype) * self.draw_spread
-        if mixture:
-            u = (0.5 * (1 + torch.erf(z[:, dim] / math.sqrt(2.0)))).reshape(shape[:-1])
-            action = mixture_action(loc, scale, tensordict.get("mixture_logits"), u, eps)
-        else:
-            action = loc + scale * eps
-        tensordict.set("action", action)
-        return tensordict
 
 
 def main() -> None:
@@ -103,7 +57,7 @@ def main() -> None:
     print("| --- | --- | --- | --- | --- |")
     for rho in rhos:
         spread = math.sqrt((1 - rho) / (1 + rho)) if args.match_drift else 1.0
-        policy = PersistentNoisePolicy(method.policy.net, rho, spread)
+        policy = NetPolicy(method.policy.net, stochastic=True, spread=spread, noise_correlation=rho)
         results = run_episodes(
             policy,
             scenes,

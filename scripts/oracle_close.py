@@ -24,11 +24,9 @@ import json
 from pathlib import Path
 
 import torch
-from torchrl.envs.utils import set_exploration_type
 
 from occrl.baselines import NetPolicy
-from occrl.envs import world_constants as C
-from occrl.envs.episodes import episode_end, seeded_task_env, task_scenes
+from occrl.envs.episodes import run_episodes, task_scenes
 from occrl.envs.pymunk2d.fingers import grasp_candidate
 from occrl.eval.methods import make_method
 from occrl.eval.runner import EVAL_SEED_BASE, mcnemar_p, wilson_interval
@@ -39,7 +37,7 @@ MODES = ("policy", "veto", "oracle")
 
 class OracleClose(torch.nn.Module):
     """A policy whose gripper command is overridden per ``mode`` from the worlds' true state
-    (``worlds``: the env's ``base_env.worlds``, set per batch)."""
+    (``worlds``: the env's ``base_env.worlds``, set per batch by ``run_episodes``'s ``on_env``)."""
 
     def __init__(self, policy: NetPolicy, mode: str) -> None:
         super().__init__()
@@ -93,25 +91,19 @@ def main() -> None:
     print("| --- | --- | --- | --- | --- | --- |")
     for mode in modes:
         policy = OracleClose(NetPolicy(method.policy.net, stochastic=True), mode)
-        ok = []
-        for start in range(0, args.tasks, 16):  # batches of 16 worlds, as occrl eval runs them
-            batch = slice(start, start + 16)
-            env = seeded_task_env(
-                policy,
-                scenes[batch],
-                seeds[batch],
-                0.0,
-                method.primers,
-                size=method.image_size,
-                remembered_detections=method.remembered_detections,
-            )
-            policy.worlds = env.base_env.worlds
-            with torch.no_grad(), set_exploration_type(method.exploration):
-                td = env.rollout(C.MAX_EPISODE_STEPS, policy, break_when_any_done=False, break_when_all_done=True)
-            done, success = td["next", "done"].squeeze(-1).numpy(), td["next", "success"].squeeze(-1).numpy()
-            for b in range(done.shape[0]):
-                end = episode_end(done[b])
-                ok.append(bool(success[b, end]) and end + 1 <= C.MAX_EPISODE_STEPS)
+        results = run_episodes(
+            policy,
+            scenes,
+            seeds,
+            0.0,
+            16,
+            method.primers,
+            method.exploration,
+            size=method.image_size,
+            remembered_detections=method.remembered_detections,
+            on_env=lambda env: setattr(policy, "worlds", env.base_env.worlds),
+        )
+        ok = [r.success for r in results]
         solved[mode] = ok
         n = sum(ok)
         lo, hi = wilson_interval(n, args.tasks)

@@ -21,11 +21,9 @@ from collections import defaultdict
 
 import numpy as np
 import torch
-from torchrl.envs.utils import set_exploration_type
 
 from occrl.baselines import NetPolicy
-from occrl.envs import world_constants as C
-from occrl.envs.episodes import episode_end, seeded_task_env, task_scenes
+from occrl.envs.episodes import episode_end, run_episodes, task_scenes
 from occrl.eval.methods import make_method
 from occrl.eval.runner import EVAL_SEED_BASE
 from occrl.pretrained import network_name, weights_file
@@ -73,20 +71,8 @@ def main() -> None:
     scenes = task_scenes(args.stage, seeds)
     policy = WithHeatmap(NetPolicy(method.policy.net, stochastic=True))
     rows = defaultdict(list)  # group -> (mass share, footprint area share, lift)
-    for start in range(0, args.tasks, 16):
-        batch = slice(start, start + 16)
-        env = seeded_task_env(
-            policy,
-            scenes[batch],
-            seeds[batch],
-            0.0,
-            method.primers,
-            True,
-            size=method.image_size,
-            remembered_detections=method.remembered_detections,
-        )
-        with torch.no_grad(), set_exploration_type(method.exploration):
-            td = env.rollout(C.MAX_EPISODE_STEPS, policy, break_when_any_done=False, break_when_all_done=True)
+
+    def tally(td) -> None:  # one batch's trajectory (worlds, time): its steps grouped, in rows
         done = td["next", "done"].squeeze(-1).numpy()
         slot = td["privileged", "target_slot"][..., 0]
         # the camera's report, not the image: with remembered detections a slot can be drawn unseen
@@ -104,6 +90,20 @@ def main() -> None:
                     )
                 if visible[b, t]:
                     seen_before, last = True, t
+
+    run_episodes(
+        policy,
+        scenes,
+        seeds,
+        0.0,
+        16,
+        method.primers,
+        method.exploration,
+        heatmap_target=True,
+        size=method.image_size,
+        remembered_detections=method.remembered_detections,
+        on_rollout=tally,
+    )
     print(f"network {network_name(args.weights or 'occnet')}, stage {args.stage}, {args.tasks} held-out tasks, own sampled policy acting")
     print("| target | steps | heat-map mass on the target | footprint's share of the window | lift |")
     print("| --- | --- | --- | --- | --- |")

@@ -16,6 +16,8 @@ from typing import Callable, Sequence
 
 import numpy as np
 import torch
+from tensordict import TensorDictBase
+from torchrl.envs import EnvBase
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
 from occrl.envs import world_constants as C
@@ -216,10 +218,15 @@ def run_episodes(
     size: int = DEFAULT_SIZE,
     replicate: int = 0,
     remembered_detections: bool = False,
+    on_env: Callable[[EnvBase], None] | None = None,
+    on_rollout: Callable[[TensorDictBase], None] | None = None,
 ) -> list[EpisodeResult]:
     """Run ``policy`` once on each scene (batches of ``batch_size`` worlds stepped together);
     ``replicate`` > 0 draws the decision maker's randomness anew (:func:`decision_seed`);
     ``remembered_detections`` and ``size`` make the env a network needs (``make_env``).
+    Diagnoses look inside through two hooks: ``on_env`` gets each batch's env before its
+    roll-out (e.g. to hand a policy the worlds' true state: ``env.base_env.worlds``),
+    ``on_rollout`` each batch's trajectory (batch, time) after it.
 
     Success requires retrieval in under 50 actions and under 2 minutes, with nothing dropped.
     The batch stops when each of its worlds has ended its episode (a world that ended is not
@@ -239,10 +246,14 @@ def run_episodes(
         chunk = list(scenes[start : start + batch_size])
         chunk_seeds = list(seeds[start : start + batch_size])
         env = seeded_task_env(policy, chunk, chunk_seeds, noise, primers, heatmap_target, world, size, replicate, remembered_detections)
+        if on_env is not None:
+            on_env(env)
         t = time.time()
         with torch.no_grad(), set_exploration_type(exploration):
             td = env.rollout(C.MAX_EPISODE_STEPS, policy, break_when_any_done=False, break_when_all_done=True)
         per_task = (time.time() - t) / len(chunk)
+        if on_rollout is not None:
+            on_rollout(td)
         done = td.get(("next", "done")).squeeze(-1).numpy()
         success = td.get(("next", "success")).squeeze(-1).numpy()
         dropped = td.get(("next", "dropped")).squeeze(-1).numpy()

@@ -338,3 +338,23 @@ def test_proposal_uptake_refuses_a_bonus_that_is_not_a_finite_number():
         [sys.executable, "scripts/proposal_uptake.py", "--tasks", "1", "--proposal-bonus", "nan"], capture_output=True, text=True, cwd=ROOT
     )
     assert done.returncode == 2 and "--proposal-bonus must be a finite number" in done.stderr
+
+
+def test_the_policy_probes_reproduce_the_evaluation_at_their_reference_setting(tmp_path):
+    """noise_persistence at rho 0 and oracle_close's "policy" mode are ``occrl eval --method
+    stochastic-gen`` task for task; the oracle close changes commands; target_memory finds the
+    heat-map's mass on the target while it is in view."""
+    baseline = tmp_path / "own.json"
+    _run("-m", "occrl.cli", "eval", "--method", "stochastic-gen", "--stage", "2", "--tasks", "8", "--workers", "1", "--out", str(baseline))
+    own = [e["success"] for e in json.loads(baseline.read_text())["episodes"]]
+    _run("scripts/noise_persistence.py", "--stage", "2", "--tasks", "8", "--rhos", "0,0.9", "--out", str(tmp_path / "noise.json"))
+    noise = json.loads((tmp_path / "noise.json").read_text())["solved"]
+    assert noise["0.0"] == own and len(noise["0.9"]) == 8
+    out = _run("scripts/oracle_close.py", "--stage", "2", "--tasks", "8", "--modes", "policy,oracle", "--out", str(tmp_path / "close.json"))
+    close = json.loads((tmp_path / "close.json").read_text())["solved"]
+    assert close["policy"] == own
+    changed = re.search(r"\| oracle \| [^\n]* \| (\d+) \|\n", out)
+    assert changed is not None and int(changed.group(1)) > 0
+    out = _run("scripts/target_memory.py", "--stage", "2", "--tasks", "8")
+    visible = re.search(r"\| visible \| (\d+) \| ([\d.]+) \| ([\d.]+) \| ([\d.]+)x \|", out)
+    assert visible is not None and int(visible.group(1)) > 0 and float(visible.group(4)) > 1.0  # more mass on the target than elsewhere
