@@ -24,12 +24,11 @@ from typing import Iterable
 import numpy as np
 from tensordict import TensorDictBase
 
-from occrl.envs.geometry import polygons_overlap, transform_points
+from occrl.envs.geometry import transform_points
+from occrl.envs.remembered import still_where_seen
 from occrl.envs.scene import SceneObject
 from occrl.envs.shelf_geometry import gripper_polygons
 from occrl.planners.recreate import RecreatedState
-
-from occrl.baselines.motion import STALE_OVERLAP
 
 __all__ = ["KnownObject", "ObjectMemory", "current_objects"]
 
@@ -52,16 +51,12 @@ def current_objects(known: Iterable[KnownObject], step: int, gripper: list[np.nd
     outline, sorted by type id: freshest first, a remembered pose that overlaps a fresher object,
     or (unless seen at ``step``) the gripper's outlines ``gripper``, by more than
     :data:`~occrl.baselines.motion.STALE_OVERLAP` is stale and left out."""
-    kept: list[tuple[KnownObject, np.ndarray]] = []
-    for k in sorted(known, key=lambda k: -k.seen_step):  # freshest first
-        poly = transform_points(k.vertices, k.pose)
-        fresh = k.seen_step == step
-        # pymunk lets bodies in contact overlap by a few mm: only deeper overlaps mean stale
-        if any(polygons_overlap(poly, q, clearance=-STALE_OVERLAP) for _, q in kept):
-            continue
-        if not fresh and any(polygons_overlap(poly, g, clearance=-STALE_OVERLAP) for g in gripper):
-            continue
-        kept.append((k, poly))
+    ordered = sorted(known, key=lambda k: -k.seen_step)  # freshest first
+    outlines = [transform_points(k.vertices, k.pose) for k in ordered]
+    fresh = sum(k.seen_step == step for k in ordered)  # the objects seen at ``step`` come first
+    keep = still_where_seen(outlines[:fresh], [])
+    keep += still_where_seen(outlines[fresh:], [q for q, ok in zip(outlines, keep) if ok], gripper)
+    kept = [(k, q) for k, q, ok in zip(ordered, outlines, keep) if ok]
     kept.sort(key=lambda kp: kp[0].type_id)
     return kept
 

@@ -23,6 +23,8 @@ Only observation keys are read, never ``"privileged"``.
 
 from __future__ import annotations
 
+from typing import Sequence
+
 import numpy as np
 import torch
 from tensordict import TensorDictBase
@@ -32,10 +34,36 @@ from torchrl.envs.transforms import Transform
 from occrl.envs.geometry import polygons_overlap, transform_points
 from occrl.envs.shelf_geometry import gripper_polygons
 
-__all__ = ["STALE_OVERLAP", "RememberedDetections"]
+__all__ = ["STALE_OVERLAP", "RememberedDetections", "still_where_seen"]
 
 STALE_OVERLAP = 0.005  # m: a remembered outline overlapping a fresher one or the gripper deeper than this is stale
 SLOT_KEYS = ("detected", "type_id", "pose", "vertices", "num_vertices")
+
+
+def still_where_seen(outlines: Sequence[np.ndarray], fresher: Sequence[np.ndarray], gripper: Sequence[np.ndarray] = ()) -> list[bool]:
+    """The staleness rule of every memory of detections: whether each remembered outline, in the
+    order given (freshest first), is taken to be still where it was seen. One that overlaps a
+    ``fresher`` outline, an outline kept before it, or a ``gripper`` outline by more than
+    :data:`STALE_OVERLAP` has moved and is left out (pymunk lets bodies in contact overlap by a few
+    millimetres: only deeper overlaps mean stale). Shared by :class:`RememberedDetections` and
+    :func:`occrl.baselines.object_memory.current_objects`.
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.remembered import still_where_seen
+        >>> box = np.array([[0.0, 0.0], [0.04, 0.0], [0.04, 0.04], [0.0, 0.04]])
+        >>> # a box seen now at the origin; remembered ones 3 mm, 2 cm and 10 cm to its right
+        >>> still_where_seen([box + [0.037, 0.0], box + [0.02, 0.0], box + [0.1, 0.0]], fresher=[box])
+        [True, False, True]
+    """
+    kept = list(fresher)
+    keep = []
+    for outline in outlines:
+        ok = not any(polygons_overlap(outline, q, clearance=-STALE_OVERLAP) for q in (*kept, *gripper))
+        keep.append(ok)
+        if ok:
+            kept.append(outline)
+    return keep
 
 
 class RememberedDetections(Transform):
@@ -96,15 +124,12 @@ class RememberedDetections(Transform):
         poses = td.get("gripper_pose").cpu().numpy().astype(float)
         openings = td.get("gripper_opening").cpu().numpy().reshape(B).astype(float)
         for b in np.flatnonzero((memory["detected"] & ~detected).any(axis=1)):
-            kept = [self._outline(now, b, k) for k in np.flatnonzero(detected[b])]
+            fresher = [self._outline(now, b, k) for k in np.flatnonzero(detected[b])]
             gripper = [transform_points(p, poses[b]) for p in gripper_polygons(float(openings[b]))]
             candidates = np.flatnonzero(memory["detected"][b] & ~detected[b])
-            for k in candidates[np.argsort(-memory["seen"][b, candidates], kind="stable")]:  # freshest first
-                outline = self._outline(memory, b, k)
-                if any(polygons_overlap(outline, q, clearance=-STALE_OVERLAP) for q in (*kept, *gripper)):
-                    continue
-                kept.append(outline)
-                remembered[b, k] = True
+            candidates = candidates[np.argsort(-memory["seen"][b, candidates], kind="stable")]  # freshest first
+            keep = still_where_seen([self._outline(memory, b, k) for k in candidates], fresher, gripper)
+            remembered[b, candidates[keep]] = True
         for k in SLOT_KEYS:
             now[k][remembered] = memory[k][remembered]
         shape = objects.batch_size

@@ -27,7 +27,7 @@ from torch import nn
 
 from occrl.modules.encoder import ConvEncoder
 from occrl.modules.heads import HeatmapHead, PolicyHead, ValueHead
-from occrl.modules.occnet import OccNet
+from occrl.modules.occnet import PRESETS, OccNet
 
 __all__ = ["with_wider_network"]
 
@@ -94,14 +94,15 @@ def _grow_lstm(new: nn.LSTM, old: nn.LSTM, old_inputs: int) -> None:
 
 def with_wider_network(
     net: OccNet,
-    conv_channels: Sequence[int] = (16, 16, 32),
-    lstm_hidden: int = 256,
-    policy_hidden: Sequence[int] = (256, 256),
-    value_hidden: Sequence[int] = (256, 128),
+    conv_channels: Sequence[int] | None = None,
+    lstm_hidden: int | None = None,
+    policy_hidden: Sequence[int] | None = None,
+    value_hidden: Sequence[int] | None = None,
     seed: int = 0,
 ) -> OccNet:
     """A wider copy of ``net`` that computes what ``net`` computes (module docstring). Every new
-    size must be at least the old one; the defaults double the paper's (the ``"wide"`` preset).
+    size must be at least the old one; a size not given is the ``"wide"`` preset's (twice the
+    paper's).
 
     Examples:
         >>> import torch
@@ -115,7 +116,11 @@ def with_wider_network(
         >>> wide.config.lstm_hidden, bool(torch.allclose(a, b, atol=1e-6))
         (256, True)
     """
-    cfg = net.config
+    cfg, preset = net.config, PRESETS["wide"]
+    conv_channels = preset.conv_channels if conv_channels is None else conv_channels
+    lstm_hidden = preset.lstm_hidden if lstm_hidden is None else lstm_hidden
+    policy_hidden = preset.policy_hidden if policy_hidden is None else policy_hidden
+    value_hidden = preset.value_hidden if value_hidden is None else value_hidden
     sizes = {
         "conv_channels": (tuple(conv_channels), cfg.conv_channels),
         "policy_hidden": (tuple(policy_hidden), cfg.policy_hidden),
