@@ -92,7 +92,8 @@ class Canvas:
         h, w = self.shape
         col = np.floor((points[..., 0] - self.x0) / self.resolution).astype(np.int64)
         row = np.floor((self.y1 - points[..., 1]) / self.resolution).astype(np.int64)
-        return row, col, (col >= 0) & (col < w) & (row >= 0) & (row < h)
+        # (as unsigned, a negative index is larger than any canvas size: one comparison per bound)
+        return row, col, (col.view(np.uint64) < w) & (row.view(np.uint64) < h)
 
     def lookup(self, labels: np.ndarray, points: np.ndarray, outside: int = LABELS["occluded"]) -> np.ndarray:
         """Nearest-pixel values of ``labels`` (..., H, W) at shelf-frame ``points`` (..., S, S, 2)."""
@@ -214,17 +215,26 @@ def render_labels_at(
     B = len(points)
     row, col, valid = row.reshape(B, -1), col.reshape(B, -1), valid.reshape(B, -1)
     # each world's region: the rows and columns its points reach on the canvas (a 1 x 1 corner when none)
-    seen = valid.any(axis=1)
-    row0 = np.where(seen, np.where(valid, row, canvas.shape[0]).min(axis=1), 0)
-    row1 = np.where(seen, np.where(valid, row, -1).max(axis=1) + 1, 1)
-    col1 = np.where(seen, np.where(valid, col, -1).max(axis=1) + 1, 1)
+    everywhere = bool(valid.all())  # the common case, every point on the canvas: no masking
+    if everywhere:
+        row0, row1, col1 = row.min(axis=1), row.max(axis=1) + 1, col.max(axis=1) + 1
+    else:
+        seen = valid.any(axis=1)
+        row0 = np.where(seen, np.where(valid, row, canvas.shape[0]).min(axis=1), 0)
+        row1 = np.where(seen, np.where(valid, row, -1).max(axis=1) + 1, 1)
+        col1 = np.where(seen, np.where(valid, col, -1).max(axis=1) + 1, 1)
     regions = list(zip(row0.tolist(), row1.tolist(), col1.tolist()))
     # every world's region laid end to end, row by row: one gather for the points of all worlds
     # (points off the canvas read the first pixel and are replaced by ``outside``)
     flat = np.frombuffer(b"".join(_render_regions(gripper_poses, openings, detections, canvas, fov, regions)), dtype=np.uint8)
     start = np.concatenate(([0], np.cumsum((row1 - row0) * col1)[:-1]))
-    index = (row - row0[:, None]) * col1[:, None] + col + start[:, None]
-    out = np.where(valid, flat[np.where(valid, index, 0)], np.uint8(outside))
+    row -= row0[:, None]  # (the arrays are pixel_indices' own: changed in place)
+    row *= col1[:, None]
+    row += col
+    row += start[:, None]
+    if everywhere:
+        return flat[row].reshape(points.shape[:-1])
+    out = np.where(valid, flat[np.where(valid, row, 0)], np.uint8(outside))
     return out.reshape(points.shape[:-1])
 
 
