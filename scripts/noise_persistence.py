@@ -23,7 +23,7 @@ import math
 from pathlib import Path
 
 from occrl.baselines import NetPolicy
-from occrl.envs.episodes import run_episodes, task_scenes
+from occrl.envs.episodes import task_scenes
 from occrl.eval.methods import make_method
 from occrl.eval.runner import EVAL_SEED_BASE, mcnemar_p, wilson_interval
 from occrl.pretrained import network_name, weights_file
@@ -58,17 +58,7 @@ def main() -> None:
     for rho in rhos:
         spread = math.sqrt((1 - rho) / (1 + rho)) if args.match_drift else 1.0
         policy = NetPolicy(method.policy.net, stochastic=True, spread=spread, noise_correlation=rho)
-        results = run_episodes(
-            policy,
-            scenes,
-            seeds,
-            0.0,
-            16,
-            method.primers,
-            method.exploration,
-            size=method.image_size,
-            remembered_detections=method.remembered_detections,
-        )
+        results = method.run_episodes(scenes, seeds, policy=policy)
         solved[rho] = [r.success for r in results]
         n = sum(solved[rho])
         lo, hi = wilson_interval(n, args.tasks)

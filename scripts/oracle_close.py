@@ -26,7 +26,7 @@ from pathlib import Path
 import torch
 
 from occrl.baselines import NetPolicy
-from occrl.envs.episodes import run_episodes, task_scenes
+from occrl.envs.episodes import task_scenes
 from occrl.envs.pymunk2d.fingers import grasp_candidate
 from occrl.eval.methods import make_method
 from occrl.eval.runner import EVAL_SEED_BASE, mcnemar_p, wilson_interval
@@ -91,18 +91,7 @@ def main() -> None:
     print("| --- | --- | --- | --- | --- | --- |")
     for mode in modes:
         policy = OracleClose(NetPolicy(method.policy.net, stochastic=True), mode)
-        results = run_episodes(
-            policy,
-            scenes,
-            seeds,
-            0.0,
-            16,
-            method.primers,
-            method.exploration,
-            size=method.image_size,
-            remembered_detections=method.remembered_detections,
-            on_env=lambda env: setattr(policy, "worlds", env.base_env.worlds),
-        )
+        results = method.run_episodes(scenes, seeds, policy=policy, on_env=lambda env: setattr(policy, "worlds", env.base_env.worlds))
         ok = [r.success for r in results]
         solved[mode] = ok
         n = sum(ok)

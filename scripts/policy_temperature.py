@@ -19,7 +19,7 @@ import json
 from pathlib import Path
 
 from occrl.baselines import NetPolicy
-from occrl.envs.episodes import run_episodes, task_scenes
+from occrl.envs.episodes import task_scenes
 from occrl.eval.methods import make_method
 from occrl.eval.runner import EVAL_SEED_BASE, mcnemar_p, wilson_interval
 from occrl.pretrained import network_name, weights_file
@@ -47,17 +47,7 @@ def main() -> None:
     for k in spreads:
         policy = NetPolicy(method.policy.net, stochastic=True, spread=k)
         # batches of 16 worlds, as occrl eval runs them
-        results = run_episodes(
-            policy,
-            scenes,
-            seeds,
-            0.0,
-            16,
-            method.primers,
-            method.exploration,
-            size=method.image_size,
-            remembered_detections=method.remembered_detections,
-        )
+        results = method.run_episodes(scenes, seeds, policy=policy)
         solved[k] = [r.success for r in results]
         episodes[str(k)] = [r.to_dict() for r in results]
     print(

@@ -25,7 +25,7 @@ from collections import defaultdict
 
 import numpy as np
 
-from occrl.envs.episodes import run_episodes, task_scenes
+from occrl.envs.episodes import task_scenes
 from occrl.eval.methods import make_method, ompl_hybrid_setting
 from occrl.eval.runner import EVAL_SEED_BASE
 from occrl.pretrained import weights_file
@@ -89,16 +89,7 @@ def main() -> None:
     for seed in seeds:
         planner.decisions.clear()
         planner.proposals.clear()
-        [result] = run_episodes(
-            planner,
-            task_scenes(args.stage, [seed]),
-            [seed],
-            batch_size=1,
-            primers=method.primers,
-            exploration=method.exploration,
-            size=method.image_size,
-            remembered_detections=method.remembered_detections,
-        )
+        [result] = method.run_episodes(task_scenes(args.stage, [seed]), [seed], batch_size=1, policy=planner)
         records += planner.proposals
         solved[seed] = bool(result.success)
         actions[seed] = int(result.actions)

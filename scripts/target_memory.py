@@ -23,7 +23,7 @@ import numpy as np
 import torch
 
 from occrl.baselines import NetPolicy
-from occrl.envs.episodes import episode_end, run_episodes, task_scenes
+from occrl.envs.episodes import episode_end, task_scenes
 from occrl.eval.methods import make_method
 from occrl.eval.runner import EVAL_SEED_BASE
 from occrl.pretrained import network_name, weights_file
@@ -91,19 +91,7 @@ def main() -> None:
                 if visible[b, t]:
                     seen_before, last = True, t
 
-    run_episodes(
-        policy,
-        scenes,
-        seeds,
-        0.0,
-        16,
-        method.primers,
-        method.exploration,
-        heatmap_target=True,
-        size=method.image_size,
-        remembered_detections=method.remembered_detections,
-        on_rollout=tally,
-    )
+    method.run_episodes(scenes, seeds, policy=policy, heatmap_target=True, on_rollout=tally)
     print(f"network {network_name(args.weights or 'occnet')}, stage {args.stage}, {args.tasks} held-out tasks, own sampled policy acting")
     print("| target | steps | heat-map mass on the target | footprint's share of the window | lift |")
     print("| --- | --- | --- | --- | --- |")

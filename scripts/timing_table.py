@@ -29,7 +29,7 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
-from occrl.envs.episodes import run_episodes, task_scenes
+from occrl.envs.episodes import task_scenes
 from occrl.eval.methods import METHODS, is_method, make_method, method_network
 from occrl.eval.runner import EVAL_SEED_BASE
 from occrl.eval.sweep import SCENE_STAGE, point_episodes, sweep_points
@@ -66,17 +66,7 @@ def time_method(name: str, objects: list[int], tasks: int, bar: tqdm) -> list[di
             decisions = getattr(method.policy, "decisions", None)  # the hybrid planners' record of each decision
             if decisions is not None:
                 decisions.clear()
-            [result] = run_episodes(
-                method.policy,
-                task_scenes(SCENE_STAGE, [seed], count),
-                [seed],
-                0.0,
-                1,
-                method.primers,
-                method.exploration,
-                size=method.image_size,
-                remembered_detections=method.remembered_detections,
-            )
+            [result] = method.run_episodes(task_scenes(SCENE_STAGE, [seed], count), [seed], batch_size=1)
             if timer.calls != result.actions:
                 raise RuntimeError(f"{name} was asked {timer.calls} times for an episode of {result.actions} actions (task {seed})")
             rows.append(

@@ -6,10 +6,13 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Sequence
 
 from torchrl.envs.utils import ExplorationType
 
+from occrl.envs.episodes import EpisodeResult, run_episodes
 from occrl.envs.robot_frame import DEFAULT_SIZE
+from occrl.envs.scene import Scene
 
 __all__ = [
     "Method",
@@ -110,6 +113,26 @@ class Method:
     remembered_detections: bool = False
     """Whether the env draws earlier detections into the image: the network's
     ``config.remembered_detections``."""
+
+    def run_episodes(
+        self, scenes: Sequence[Scene], seeds: Sequence[int], noise: float = 0.0, batch_size: int = 16, policy=None, **options
+    ) -> list[EpisodeResult]:
+        """:func:`occrl.envs.episodes.run_episodes` of this method: its primers, exploration type,
+        image size and remembered detections. ``policy`` replaces the method's own (a diagnosis's
+        wrapper around it); ``options`` are ``run_episodes``'s others (``world``, ``replicate``,
+        ``heatmap_target``, ``on_env``, ``on_rollout``)."""
+        return run_episodes(
+            self.policy if policy is None else policy,
+            scenes,
+            seeds,
+            noise,
+            batch_size,
+            self.primers,
+            self.exploration,
+            size=self.image_size,
+            remembered_detections=self.remembered_detections,
+            **options,
+        )
 
 
 def _net(name: str, weights: str | Path | None):

@@ -18,7 +18,7 @@ from tensordict import TensorDictBase
 from torchrl.envs.utils import set_exploration_type
 
 from occrl.envs import world_constants as C
-from occrl.envs.episodes import EpisodeResult, check_replicate, run_episodes, seeded_task_env, task_scenes
+from occrl.envs.episodes import EpisodeResult, check_replicate, run_episodes, seeded_task_env, task_scenes  # noqa: F401 (re-exported)
 
 # EpisodeResult, run_episodes, task_scenes, seeded_task_env live in occrl.envs.episodes (importable here too)
 __all__ = ["rollout_tasks", "run_tasks", "summarize", "wilson_interval", "mcnemar_p", "exclusive_wins", "EVAL_SEED_BASE"]
@@ -172,19 +172,7 @@ def _init_worker(method: str, weights, threads: int, settings: dict) -> None:
 def _run_chunk(args) -> list[EpisodeResult]:
     stage, seeds, num_objects, noise, world, replicate = args
     m = _WORKER["method"]
-    return run_episodes(
-        m.policy,
-        task_scenes(stage, seeds, num_objects),
-        seeds,
-        noise,
-        len(seeds),
-        m.primers,
-        m.exploration,
-        world=world,
-        size=m.image_size,
-        replicate=replicate,
-        remembered_detections=m.remembered_detections,
-    )
+    return m.run_episodes(task_scenes(stage, seeds, num_objects), seeds, noise, len(seeds), world=world, replicate=replicate)
 
 
 def _run_tasks_ray(
