@@ -358,3 +358,25 @@ def test_the_policy_probes_reproduce_the_evaluation_at_their_reference_setting(t
     out = _run("scripts/target_memory.py", "--stage", "2", "--tasks", "8")
     visible = re.search(r"\| visible \| (\d+) \| ([\d.]+) \| ([\d.]+) \| ([\d.]+)x \|", out)
     assert visible is not None and int(visible.group(1)) > 0 and float(visible.group(4)) > 1.0  # more mass on the target than elsewhere
+
+
+def test_episode_film_films_the_evaluations_episode(tmp_path):
+    """The film's episode is the evaluation's: the same outcome and length as ``occrl eval`` on that task seed."""
+    from PIL import Image
+
+    result = tmp_path / "scripted.json"
+    _run("-m", "occrl.cli", "eval", "--method", "scripted", "--stage", "2", "--tasks", "2", "--workers", "1", "--out", str(result))
+    episode = json.loads(result.read_text())["episodes"][1]
+    out = _run(
+        "scripts/episode_film.py", "--method", "scripted", "--stage", "2", "--seed", str(episode["seed"]), "--out", str(tmp_path / "f.png")
+    )
+    outcome = "success" if episode["success"] else ("dropped an object" if episode["dropped"] else "not retrieved")
+    assert f"task {episode['seed']}: {outcome} after {episode['actions']} actions" in out
+    assert Image.open(tmp_path / "f.png").size[0] > 1000  # a strip of frames
+    bad = subprocess.run(
+        [sys.executable, "scripts/episode_film.py", "--method", "scripted", "--seed", "1", "--out", str(tmp_path / "f.jpg")],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+    )
+    assert bad.returncode != 0 and "--out must end in .png" in bad.stderr
