@@ -137,6 +137,11 @@ NETWORKS = [
         "results/wide/self-imitation-bc-only/stochastic-gen_s2_iteration100.json",
         "results/wide/self-imitation-bc-only/hybrid-4x4_s2_iteration100.json",
     ),
+    Network(
+        "clearing-observed successes, imitation loss alone, beta 1, 75",
+        "results/clearing-observed/imitation-only/successes-beta1/stochastic-gen_s2_iteration75.json",
+        "results/clearing-observed/imitation-only/successes-beta1/hybrid-4x4_s2_iteration75.json",
+    ),
 ]
 
 
