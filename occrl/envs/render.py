@@ -254,12 +254,13 @@ def _render_regions(gripper_poses, openings, detections, canvas: Canvas, fov: fl
             padded[b, : counts[b]] = pad_polygons(polys, C.MAX_VERTICES)
     # shadows of detected objects and walls: from the two silhouette vertices away from the camera
     _, _, inside, i_lo, i_hi = angular_extents(padded, poses, with_tangents=True)
-    v_lo = np.take_along_axis(padded, i_lo[..., None, None], axis=2)[:, :, 0]
-    v_hi = np.take_along_axis(padded, i_hi[..., None, None], axis=2)[:, :, 0]
+    worlds, slots = np.arange(padded.shape[0])[:, None], np.arange(padded.shape[1])[None, :]
+    v_lo, v_hi = padded[worlds, slots, i_lo], padded[worlds, slots, i_hi]
     cams = poses[:, None, :2]
     d_lo, d_hi = v_lo - cams, v_hi - cams
-    f_lo = v_lo + _FAR * d_lo / np.maximum(np.linalg.norm(d_lo, axis=-1, keepdims=True), 1e-9)
-    f_hi = v_hi + _FAR * d_hi / np.maximum(np.linalg.norm(d_hi, axis=-1, keepdims=True), 1e-9)
+    # (the lengths as np.linalg.norm computes them, a square root of the summed squares, without its wrapper)
+    f_lo = v_lo + _FAR * d_lo / np.maximum(np.sqrt(np.add.reduce(d_lo * d_lo, -1, keepdims=True)), 1e-9)
+    f_hi = v_hi + _FAR * d_hi / np.maximum(np.sqrt(np.add.reduce(d_hi * d_hi, -1, keepdims=True)), 1e-9)
     shadow_pixels = canvas.to_pixels(np.stack([v_lo, v_hi, f_hi, f_lo], 2))
     arc = _FOV_ARC[fov] if fov in _FOV_ARC else _fov_arc(fov)
     # outside the field of view: the camera, then an arc around the back
