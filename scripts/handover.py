@@ -37,7 +37,7 @@ from tqdm import tqdm
 from occrl.eval.methods import make_method
 from occrl.baselines.handover import SearchThenRetrieve
 from occrl.baselines.observed_clearing import ObservedClearingRetriever
-from occrl.envs.episodes import run_episodes, task_scenes
+from occrl.envs.episodes import task_scenes
 from occrl.eval.runner import EVAL_SEED_BASE, paired_with, summarize
 from occrl.pretrained import network_name, weights_file
 
@@ -65,16 +65,7 @@ def main() -> None:
         policy.reset()  # a new task (run_episodes reseeds both parts with the task seed)
         policy.handovers = before
         handed.append(None)
-        results += run_episodes(
-            policy,
-            task_scenes(args.stage, [seed]),
-            [seed],
-            0.0,
-            1,
-            planner.primers,
-            size=planner.image_size,
-            remembered_detections=planner.remembered_detections,
-        )
+        results += planner.run_episodes(task_scenes(args.stage, [seed]), [seed], batch_size=1, policy=policy)
         handed[-1] = policy.handovers > before
     summary = summarize(results)
     lo, hi = summary["success_ci95"]

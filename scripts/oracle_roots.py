@@ -39,7 +39,7 @@ from tensordict import TensorDictBase
 from tqdm import tqdm
 
 from occrl.envs import SceneObject
-from occrl.envs.episodes import run_episodes, task_scenes
+from occrl.envs.episodes import task_scenes
 from occrl.eval.methods import make_method
 from occrl.eval.runner import EVAL_SEED_BASE, paired_with, summarize
 from occrl.envs import world_constants as C
@@ -124,16 +124,7 @@ def main() -> None:
     # one world per task, as `occrl eval` runs the planners
     name = f"hybrid {'4 roll-outs to the end' if args.to_the_end else '4x4'} from the true {args.roots}"
     for seed in tqdm(seeds, desc=name, unit="task"):
-        results += run_episodes(
-            planner,
-            task_scenes(args.stage, [seed]),
-            [seed],
-            0.0,
-            1,
-            method.primers,
-            size=method.image_size,
-            remembered_detections=method.remembered_detections,
-        )
+        results += method.run_episodes(task_scenes(args.stage, [seed]), [seed], batch_size=1, policy=planner)
     summary = summarize(results)
     lo, hi = summary["success_ci95"]
     print(
