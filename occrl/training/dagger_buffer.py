@@ -12,7 +12,7 @@ from pathlib import Path
 import torch
 from tensordict import TensorDict, TensorDictBase
 
-__all__ = ["DaggerBuffer"]
+__all__ = ["DaggerBuffer", "as_float"]
 
 _KEYS = [
     "pixels",
@@ -72,11 +72,7 @@ class DaggerBuffer:
             k = int(torch.searchsorted(bounds, torch.tensor(i), right=True))
             start = 0 if k == 0 else int(bounds[k - 1])
             rows.append(self.batches[k][i - start])
-        out = torch.stack(rows)
-        out.set("pixels", out.get("pixels").float() / 255.0)
-        if ("privileged", "heatmap_target") in out.keys(True):
-            out.set(("privileged", "heatmap_target"), out.get(("privileged", "heatmap_target")).float())
-        return out
+        return as_float(torch.stack(rows))
 
     def save(self, path: str | Path) -> None:
         tmp = Path(str(path) + ".tmp")
@@ -90,3 +86,21 @@ class DaggerBuffer:
         obj = torch.load(path, map_location="cpu", weights_only=True)
         self.capacity = int(obj["capacity"])
         self.batches = [TensorDict(d, batch_size=s) for d, s in zip(obj["batches"], obj["shapes"])]
+
+
+def as_float(stored: TensorDictBase) -> TensorDictBase:
+    """Stored (compact) sequences as the losses read them: pixels in [0, 1] and heat-map labels as
+    floats again, in a new tensordict (the other entries shared).
+
+    Examples:
+        >>> import torch
+        >>> from tensordict import TensorDict
+        >>> from occrl.training.dagger_buffer import as_float
+        >>> as_float(TensorDict({"pixels": torch.full((1, 2, 3, 4, 4), 255, dtype=torch.uint8)}, batch_size=[1, 2]))["pixels"].max()
+        tensor(1.)
+    """
+    out = stored.copy()
+    out.set("pixels", stored.get("pixels").float() / 255.0)
+    if ("privileged", "heatmap_target") in stored.keys(True):
+        out.set(("privileged", "heatmap_target"), stored.get(("privileged", "heatmap_target")).float())
+    return out

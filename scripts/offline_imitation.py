@@ -1,0 +1,224 @@
+"""Imitation at scale, offline: many gradient steps on one large labelled data set.
+
+The DAgger runs of issue 16 took 16 gradient steps per iteration on a sliding aggregate of the
+last 16 iterations: about 1,200 steps in a 75-iteration run, each on a window of ~130 sequences.
+When the teacher acts every labelled step (``--imitation-beta-min 1``), the labels do not depend on
+the learner, so the data can be collected once and trained on for as long as the CPU allows:
+
+    # 1. the data set: a DAgger run that keeps every iteration and does not learn (learning rate 0)
+    occrl train --preset cpu-curriculum --imitation-teacher clearing-observed --imitation-beta-min 1 \\
+        --label-episodes success --critic-coeff 0 --heatmap-coeff 0 --collector single \\
+        --replay-stage-workers 0 --num-envs 16 --init-weights occnet-takeover --start-stage 2 \\
+        --promotion-eval-every 1000 --imitation-updates 1 --imitation-buffer-iters 1000 --lr 0 \\
+        --iterations 150 --seed 7 --run-dir DATA
+    # 2. the gradient steps (resumes from OUT/checkpoint.pt when stopped; the same weights either way)
+    python scripts/offline_imitation.py --data DATA --init-weights occnet-takeover --steps 12000 \\
+        --save-every 2000 --out OUT
+    # 3. each saved network on the held-out tasks
+    occrl eval --method stochastic-gen --stage 2 --tasks 200 --workers 1 --weights OUT/weights_step6000.pt
+
+The loss is the trainer's (:meth:`occrl.training.learner.Learner.imitation_terms`, the data run's
+settings: the teacher's negative log-likelihood on labelled frames, the critic and heat-map terms
+at the data run's coefficients), with the data run's optimizer and learning rate unless
+``--lr`` is given. Only sequences with at least one labelled frame are kept; a tenth of them
+(``--validation-fraction``) is held out, and its mean negative log-likelihood per labelled frame is
+logged every ``--log-every`` steps to ``OUT/metrics.jsonl`` (with the training loss), so
+over-fitting shows. Batch-norm statistics stay those of the starting network (frozen, as in
+``cpu-finetune``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import torch
+from tensordict import TensorDictBase
+from torchrl.modules import set_recurrent_mode
+from tqdm import tqdm
+
+from occrl.modules.weights import load_weights, save_weights
+from occrl.objectives import imitation_nll
+from occrl.pretrained import network_name, weights_file
+from occrl.training import load_checkpoint, save_checkpoint
+from occrl.training.config import TrainConfig
+from occrl.training.dagger_buffer import DaggerBuffer, as_float
+from occrl.training.learner import Learner, recurrent_layers_training
+from occrl.training.run_folder import CHECKPOINT
+
+CHECKPOINT_MINUTES = 10.0  # a resume checkpoint at least this often
+
+
+@dataclass
+class Args:
+    data: str
+    """Run folder of the data run: its checkpoint names its settings and its DAgger data set."""
+    out: str
+    """Run folder of this fit: metrics.jsonl, weights_step<N>.pt, weights.pt, checkpoint.pt."""
+    init_weights: str = "occnet"
+    """Network to start from: a pretrained name or a weights file."""
+    steps: int = 12000
+    """Gradient steps in all (a resumed fit continues up to this count)."""
+    minibatch: int = 0
+    """Sequences per gradient step (0: the data run's minibatch_envs)."""
+    lr: float = 0.0
+    """Learning rate (0: the data run's, unless that was 0, then 3e-4)."""
+    save_every: int = 2000
+    """Write weights_step<N>.pt every this many steps."""
+    log_every: int = 200
+    """Log the training loss and the validation NLL every this many steps."""
+    validation_fraction: float = 0.1
+    """Share of the labelled sequences held out of the fit, for the validation NLL."""
+    seed: int = 0
+    """Seeds the validation split and the minibatch draws."""
+
+
+def parse_args(argv: list[str] | None = None) -> Args:
+    """An option per :class:`Args` field; its help the field's docstring."""
+    docs = field_docs()
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    for f in dataclasses.fields(Args):
+        required = f.default is dataclasses.MISSING
+        kind = {"int": int, "float": float}.get(f.type, str)
+        parser.add_argument(
+            "--" + f.name.replace("_", "-"), type=kind, required=required, default=None if required else f.default, help=docs[f.name]
+        )
+    args = Args(**vars(parser.parse_args(argv)))
+    if args.steps < 1 or args.save_every < 1 or args.log_every < 1 or args.minibatch < 0 or args.lr < 0:
+        parser.error(f"--steps, --save-every and --log-every must be >= 1, --minibatch and --lr >= 0; got {args}")
+    if not 0.0 < args.validation_fraction < 1.0:
+        parser.error(f"--validation-fraction must lie in (0, 1), got {args.validation_fraction}")
+    return args
+
+
+def field_docs() -> dict[str, str]:
+    """Each :class:`Args` field's docstring (the string literal after it in the class body)."""
+    import ast
+    import inspect
+
+    body = ast.parse(inspect.getsource(Args)).body[0].body
+    return {a.target.id: b.value.value for a, b in zip(body, body[1:]) if isinstance(a, ast.AnnAssign) and isinstance(b, ast.Expr)}
+
+
+def labelled_sequences(data_run: Path) -> tuple[TrainConfig, TensorDictBase]:
+    """The data run's settings and its aggregate's sequences with at least one labelled frame, [N, T]."""
+    obj = load_checkpoint(data_run / CHECKPOINT)
+    config = TrainConfig.from_dict(obj["train_config"])
+    name = obj["state"].get("dagger_data")
+    if not name:
+        raise ValueError(
+            f"{data_run / CHECKPOINT} names no DAgger data set (was it written during the imitation phase, with --imitation-updates > 0?)"
+        )
+    buffer = DaggerBuffer(capacity=1)
+    buffer.load(data_run / name)
+    if len(buffer.batches) < obj["state"]["iteration"]:
+        raise ValueError(
+            f"{data_run / name} holds {len(buffer.batches)} of the run's {obj['state']['iteration']} iterations: "
+            "collect with --imitation-buffer-iters at least --iterations so the data set keeps them all"
+        )
+    data = torch.cat(buffer.batches)
+    if "expert_weight" not in data.keys():  # a teacher that labels every frame
+        data.set("expert_weight", torch.ones(*data.shape, 1))
+    return config, data[data.get("expert_weight").flatten(1).sum(1) > 0]
+
+
+def validation_nll(net, data: TensorDictBase, min_scale: float, chunk: int) -> float:
+    """Mean negative log-likelihood of the teacher's actions per labelled frame of ``data``."""
+    total, frames = 0.0, 0.0
+    with torch.no_grad(), set_recurrent_mode(True):
+        for start in range(0, data.shape[0], chunk):
+            td = as_float(data[start : start + chunk])
+            n = float(td.get("expert_weight").sum())
+            total += float(imitation_nll(net, net.trunk(td), min_scale)) * n
+            frames += n
+    return total / frames
+
+
+def main(argv: list[str] | None = None) -> None:
+    args = parse_args(argv)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    config, data = labelled_sequences(Path(args.data))
+    overrides = {"minibatch_envs": args.minibatch or config.minibatch_envs, "lr": args.lr or config.lr or 3e-4}
+    config = dataclasses.replace(config, **overrides)
+    split = torch.randperm(data.shape[0], generator=torch.Generator().manual_seed(args.seed))
+    n_val = max(1, round(args.validation_fraction * data.shape[0]))
+    validation, train = data[split[:n_val]], DaggerBuffer(capacity=1)
+    train.batches = [data[split[n_val:]]]
+    labelled = int((data.get("expert_weight") > 0).sum())
+    print(f"{data.shape[0]} labelled sequences ({labelled} labelled frames): {len(train)} to fit, {n_val} held out")
+
+    net = load_weights(weights_file(args.init_weights))
+    learner = Learner(net, config, torch.device("cpu"))
+    generator = torch.Generator().manual_seed(args.seed + 1)
+    losses: list[float] = []
+    step, settings = 0, {k: v for k, v in dataclasses.asdict(args).items() if k not in ("steps", "save_every", "log_every")}
+    if (out / CHECKPOINT).exists():
+        obj = load_checkpoint(out / CHECKPOINT, net, learner.optimizer)
+        if obj["state"]["settings"] != settings:
+            raise ValueError(f"{out / CHECKPOINT} was written with other settings ({obj['state']['settings']}); use another --out")
+        step = obj["state"]["step"]
+        generator.set_state(obj["state"]["generator"])
+        losses[:] = obj["state"]["losses"]  # the training losses since the last log line
+        print(f"resumed {out / CHECKPOINT} at step {step}")
+    meta = {"note": f"scripts/offline_imitation.py from {network_name(args.init_weights)} on {args.data}", "settings": settings}
+
+    def checkpoint() -> None:
+        save_checkpoint(
+            out / CHECKPOINT,
+            net,
+            learner.optimizer,
+            config.to_dict(),
+            {"step": step, "generator": generator.get_state(), "settings": settings, "losses": losses},
+        )
+
+    metrics = out / "metrics.jsonl"
+    if step == 0:
+        metrics.write_text("")
+        with metrics.open("a") as f:
+            f.write(
+                json.dumps(
+                    {"step": 0, "validation_nll": validation_nll(net, validation, config.imitation_min_scale, config.minibatch_envs)}
+                )
+                + "\n"
+            )
+    else:  # drop lines past the checkpoint (written after it by a run that was then stopped)
+        rows = [line for line in metrics.read_text().splitlines() if json.loads(line)["step"] <= step]
+        metrics.write_text("".join(r + "\n" for r in rows))
+    last_checkpoint = time.monotonic()
+    bar = tqdm(total=args.steps, initial=step, desc="imitation", unit="step")
+    while step < args.steps:
+        with recurrent_layers_training(net):
+            terms = learner.imitation_terms(learner.on_device(train.sample(config.minibatch_envs, generator)))
+            learner.step(terms)
+        losses.append(float(sum(v.detach() for v in terms.values())))
+        step += 1
+        bar.update()
+        if step % args.log_every == 0:
+            row = {
+                "step": step,
+                "loss": sum(losses) / len(losses),
+                "validation_nll": validation_nll(net, validation, config.imitation_min_scale, config.minibatch_envs),
+            }
+            losses.clear()
+            with metrics.open("a") as f:
+                f.write(json.dumps(row) + "\n")
+            bar.set_postfix(loss=f"{row['loss']:.3f}", val=f"{row['validation_nll']:.3f}")
+        if step % args.save_every == 0 or step == args.steps:
+            save_weights(out / f"weights_step{step}.pt", net, {**meta, "step": step})
+            checkpoint()
+            last_checkpoint = time.monotonic()
+        elif time.monotonic() - last_checkpoint > 60 * CHECKPOINT_MINUTES:
+            checkpoint()
+            last_checkpoint = time.monotonic()
+    bar.close()
+    save_weights(out / "weights.pt", net, {**meta, "step": step})
+    print(f"wrote {out / 'weights.pt'} (step {step})")
+
+
+if __name__ == "__main__":
+    main()
