@@ -120,10 +120,13 @@ def labelled_sequences(data_run: Path) -> tuple[TrainConfig, TensorDictBase]:
             f"{data_run / name} holds {len(buffer.batches)} of the run's {obj['state']['iteration']} iterations: "
             "collect with --imitation-buffer-iters at least --iterations so the data set keeps them all"
         )
-    data = torch.cat(buffer.batches)
-    if "expert_weight" not in data.keys():  # a teacher that labels every frame
-        data.set("expert_weight", torch.ones(*data.shape, 1))
-    return config, data[data.get("expert_weight").flatten(1).sum(1) > 0]
+    kept = []
+    while buffer.batches:  # batch by batch, so that the data set is in memory about once
+        batch = buffer.batches.pop(0)
+        if "expert_weight" not in batch.keys():  # a teacher that labels every frame
+            batch.set("expert_weight", torch.ones(*batch.shape, 1))
+        kept.append(batch[batch.get("expert_weight").flatten(1).sum(1) > 0])
+    return config, torch.cat(kept)
 
 
 def validation_nll(net, data: TensorDictBase, min_scale: float, chunk: int) -> float:
