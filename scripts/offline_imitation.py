@@ -14,8 +14,11 @@ the learner, so the data can be collected once and trained on for as long as the
     # 2. the gradient steps (resumes from OUT/checkpoint.pt when stopped; the same weights either way)
     python scripts/offline_imitation.py --data DATA --init-weights occnet-takeover --steps 12000 \\
         --save-every 2000 --out OUT
-    # 3. each saved network on the held-out tasks
-    occrl eval --method stochastic-gen --stage 2 --tasks 200 --workers 1 --weights OUT/weights_step6000.pt
+    # 3. each saved network on the held-out tasks (named so that the plot finds them)
+    occrl eval --method stochastic-gen --stage 2 --tasks 200 --workers 1 --weights OUT/weights_step6000.pt \
+        --out OUT/stochastic-gen_s2_step6000.json
+    # 4. training loss, validation NLL and held-out success against steps, for one or more fits
+    python scripts/offline_imitation.py --plot curves.png OUT [OUT2 ...]
 
 The loss is the trainer's (:meth:`occrl.training.learner.Learner.imitation_terms`, the data run's
 settings: the teacher's negative log-likelihood on labelled frames, the critic and heat-map terms
@@ -141,7 +144,45 @@ def validation_nll(net, data: TensorDictBase, min_scale: float, chunk: int) -> f
     return total / frames
 
 
+def plot(path: str, runs: list[str]) -> None:
+    """Training loss, validation NLL and the held-out success of the evaluated saves
+    (``stochastic-gen_s2_step<N>.json`` in each fit folder) against gradient steps."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+    for run in map(Path, runs):
+        rows = [json.loads(line) for line in (run / "metrics.jsonl").read_text().splitlines()]
+        line = axes[0].plot([r["step"] for r in rows], [r["validation_nll"] for r in rows], label=f"{run.name}: validation")[0]
+        fit = [r for r in rows if "loss" in r]
+        axes[0].plot([r["step"] for r in fit], [r["loss"] for r in fit], ls=":", color=line.get_color(), label=f"{run.name}: training")
+        evals = sorted((int(f.stem.rsplit("step", 1)[1]), json.loads(f.read_text())) for f in run.glob("stochastic-gen_s2_step*.json"))
+        if evals:
+            x = [n for n, _ in evals]
+            rate = [100 * e["success_rate"] for _, e in evals]
+            half = [196 * (r / 100 * (1 - r / 100) / e["tasks"]) ** 0.5 for r, (_, e) in zip(rate, evals)]
+            axes[1].errorbar(x, rate, yerr=half, marker="o", capsize=3, color=line.get_color(), label=run.name)
+    axes[0].set(xlabel="gradient step", ylabel="NLL per labelled frame", title="imitation loss")
+    axes[1].set(xlabel="gradient step", ylabel="success %", title="own policy, 200 held-out stage-2 tasks (95 % CI)")
+    for ax in axes:
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    print(f"wrote {path}")
+
+
 def main(argv: list[str] | None = None) -> None:
+    import sys
+
+    argv = sys.argv[1:] if argv is None else argv
+    if argv[:1] == ["--plot"]:
+        if len(argv) < 3:
+            raise SystemExit("usage: offline_imitation.py --plot FIGURE.png FIT_FOLDER [FIT_FOLDER ...]")
+        plot(argv[1], argv[2:])
+        return
     args = parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -159,7 +200,9 @@ def main(argv: list[str] | None = None) -> None:
     learner = Learner(net, config, torch.device("cpu"))
     generator = torch.Generator().manual_seed(args.seed + 1)
     losses: list[float] = []
-    step, settings = 0, {k: v for k, v in dataclasses.asdict(args).items() if k not in ("steps", "save_every", "log_every")}
+    settings = {k: v for k, v in dataclasses.asdict(args).items() if k not in ("steps", "save_every", "log_every")}
+    settings["sequences"] = data.shape[0]  # the data run's folder may have collected on since
+    step = 0
     if (out / CHECKPOINT).exists():
         obj = load_checkpoint(out / CHECKPOINT, net, learner.optimizer)
         if obj["state"]["settings"] != settings:

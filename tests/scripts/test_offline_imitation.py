@@ -44,6 +44,11 @@ def test_fit_lowers_the_validation_nll_and_resumes_exactly(tmp_path):
     assert all(torch.equal(a[k], b[k]) for k in a)
     assert not all(torch.equal(a[k], start[k]) for k in a)  # it learnt
     assert (straight / "weights_step3.pt").exists() and (straight / "weights_step6.pt").exists()
+    evaluation = straight / "stochastic-gen_s2_step6.json"
+    _run("-m", "occrl.cli", "eval", "--method", "stochastic-gen", "--stage", "2", "--tasks", "2", "--workers", "1", "--no-progress",
+         "--weights", str(straight / "weights_step6.pt"), "--out", str(evaluation))  # fmt: skip
+    out = _run("scripts/offline_imitation.py", "--plot", str(tmp_path / "curves.png"), str(straight), str(resumed)).stdout
+    assert "wrote" in out and (tmp_path / "curves.png").stat().st_size > 10_000
 
 
 def test_a_data_run_that_dropped_iterations_is_refused(tmp_path):
