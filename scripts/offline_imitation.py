@@ -17,6 +17,9 @@ the learner, so the data can be collected once and trained on for as long as the
     # 3. each saved network on the held-out tasks (named so that the plot finds them)
     occrl eval --method stochastic-gen --stage 2 --tasks 200 --workers 1 --weights OUT/weights_step6000.pt \
         --out OUT/stochastic-gen_s2_step6000.json
+    # how far each network's mean action is from the teacher's, on a data run none was fitted on
+    # (step 1 with another --seed and fewer --iterations)
+    python scripts/offline_imitation.py --data DATA2 --assess occnet-takeover OUT/weights_step6000.pt
     # 4. training loss, validation NLL and held-out success against steps, for one or more fits
     python scripts/offline_imitation.py --plot curves.png OUT [OUT2 ...]
 
@@ -35,6 +38,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -44,6 +48,7 @@ from tensordict import TensorDictBase
 from torchrl.modules import set_recurrent_mode
 from tqdm import tqdm
 
+from occrl.envs import world_constants as C
 from occrl.modules.weights import load_weights, save_weights
 from occrl.objectives import imitation_nll
 from occrl.pretrained import network_name, weights_file
@@ -60,8 +65,9 @@ CHECKPOINT_MINUTES = 10.0  # a resume checkpoint at least this often
 class Args:
     data: str
     """Run folder of the data run: its checkpoint names its settings and its DAgger data set."""
-    out: str
-    """Run folder of this fit: metrics.jsonl, weights_step<N>.pt, weights.pt, checkpoint.pt."""
+    out: str = ""
+    """Run folder of this fit: metrics.jsonl, weights_step<N>.pt, weights.pt, checkpoint.pt
+    (needed unless --assess)."""
     init_weights: str = "occnet"
     """Network to start from: a pretrained name or a weights file."""
     steps: int = 12000
@@ -78,6 +84,9 @@ class Args:
     """Share of the labelled sequences held out of the fit, for the validation NLL."""
     seed: int = 0
     """Seeds the validation split and the minibatch draws."""
+    assess: list[str] = dataclasses.field(default_factory=list)
+    """Fit nothing: print, for each of these networks, how far its mean action lies from the
+    teacher's on every labelled frame of --data (a data run that none of them was fitted on)."""
 
 
 def parse_args(argv: list[str] | None = None) -> Args:
@@ -86,6 +95,9 @@ def parse_args(argv: list[str] | None = None) -> Args:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     for f in dataclasses.fields(Args):
         required = f.default is dataclasses.MISSING
+        if f.name == "assess":
+            parser.add_argument("--assess", nargs="+", default=[], metavar="WEIGHTS", help=docs[f.name])
+            continue
         kind = {"int": int, "float": float}.get(f.type, str)
         parser.add_argument(
             "--" + f.name.replace("_", "-"), type=kind, required=required, default=None if required else f.default, help=docs[f.name]
@@ -93,6 +105,8 @@ def parse_args(argv: list[str] | None = None) -> Args:
     args = Args(**vars(parser.parse_args(argv)))
     if args.steps < 1 or args.save_every < 1 or args.log_every < 1 or args.minibatch < 0 or args.lr < 0:
         parser.error(f"--steps, --save-every and --log-every must be >= 1, --minibatch and --lr >= 0; got {args}")
+    if not args.out and not args.assess:
+        parser.error("--out is needed (the fit's run folder) unless --assess is given")
     if not 0.0 < args.validation_fraction < 1.0:
         parser.error(f"--validation-fraction must lie in (0, 1), got {args.validation_fraction}")
     return args
@@ -174,6 +188,40 @@ def plot(path: str, runs: list[str]) -> None:
     print(f"wrote {path}")
 
 
+def action_errors(net, data: TensorDictBase, chunk: int) -> dict[str, float]:
+    """On the labelled frames of ``data``: the mean absolute difference between the policy's mean
+    action and the teacher's (forward and lateral in mm, rotation in degrees), and the share of
+    frames where both agree on closing the gripper (command > 0) or not, overall and on the
+    frames where the teacher closes."""
+    sums = torch.zeros(3)
+    agree = frames = closes = agree_on_close = 0.0
+    scale = torch.tensor([1000 * C.MAX_FORWARD, 1000 * C.MAX_LATERAL, math.degrees(C.MAX_ROTATION)])
+    with torch.no_grad(), set_recurrent_mode(True):
+        for start in range(0, data.shape[0], chunk):
+            td = as_float(data[start : start + chunk])
+            head = net.actor.module[0](net.trunk(td).select("belief").copy())
+            loc = head.get("loc")
+            if loc.dim() > td.get("expert_action").dim():  # a mixture policy: its likeliest component
+                logits = head.get("mixture_logits")
+                loc = loc.gather(-2, logits.argmax(-1)[..., None, None].expand(*loc.shape[:-2], 1, loc.shape[-1]))[..., 0, :]
+            teacher, labelled = td.get("expert_action"), td.get("expert_weight")[..., 0] > 0
+            loc, teacher = loc[labelled], teacher[labelled]
+            sums += ((loc[:, :3].clamp(-1, 1) - teacher[:, :3]).abs() * scale).sum(0)
+            same = (loc[:, 3] > 0) == (teacher[:, 3] > 0)
+            agree += float(same.sum())
+            closes += float((teacher[:, 3] > 0).sum())
+            agree_on_close += float(same[teacher[:, 3] > 0].sum())
+            frames += loc.shape[0]
+    forward, lateral, rotation = (sums / frames).tolist()
+    return {
+        "forward_mm": forward,
+        "lateral_mm": lateral,
+        "rotation_deg": rotation,
+        "close_agreement": agree / frames,
+        "close_agreement_where_teacher_closes": agree_on_close / max(closes, 1.0),
+    }
+
+
 def main(argv: list[str] | None = None) -> None:
     import sys
 
@@ -184,8 +232,6 @@ def main(argv: list[str] | None = None) -> None:
         plot(argv[1], argv[2:])
         return
     args = parse_args(argv)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     config, data = labelled_sequences(Path(args.data))
     overrides = {"minibatch_envs": args.minibatch or config.minibatch_envs, "lr": args.lr or config.lr or 3e-4}
     config = dataclasses.replace(config, **overrides)
@@ -196,6 +242,18 @@ def main(argv: list[str] | None = None) -> None:
     labelled = int((data.get("expert_weight") > 0).sum())
     print(f"{data.shape[0]} labelled sequences ({labelled} labelled frames): {len(train)} to fit, {n_val} held out")
 
+    if args.assess:
+        print("| network | forward (mm) | lateral (mm) | rotation (deg) | close agreement | where the teacher closes |")
+        print("| --- | --- | --- | --- | --- | --- |")
+        for name in args.assess:
+            e = action_errors(load_weights(weights_file(name)), data, config.minibatch_envs)
+            print(
+                f"| {name} | {e['forward_mm']:.1f} | {e['lateral_mm']:.1f} | {e['rotation_deg']:.2f} | "
+                f"{100 * e['close_agreement']:.1f} % | {100 * e['close_agreement_where_teacher_closes']:.1f} % |"
+            )
+        return
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
     net = load_weights(weights_file(args.init_weights))
     learner = Learner(net, config, torch.device("cpu"))
     generator = torch.Generator().manual_seed(args.seed + 1)
