@@ -141,7 +141,7 @@ def labelled_sequences(data_run: Path) -> tuple[TrainConfig, TensorDictBase]:
     while buffer.batches:  # batch by batch, so that the data set is in memory about once
         batch = buffer.batches.pop(0)
         if "expert_weight" not in batch.keys():  # a teacher that labels every frame
-            batch.set("expert_weight", torch.ones(*batch.shape, 1))
+            batch.set("expert_weight", torch.ones(batch.shape))
         kept.append(batch[batch.get("expert_weight").flatten(1).sum(1) > 0])
     return config, torch.cat(kept)
 
@@ -204,7 +204,7 @@ def action_errors(net, data: TensorDictBase, chunk: int) -> dict[str, float]:
             if loc.dim() > td.get("expert_action").dim():  # a mixture policy: its likeliest component
                 logits = head.get("mixture_logits")
                 loc = loc.gather(-2, logits.argmax(-1)[..., None, None].expand(*loc.shape[:-2], 1, loc.shape[-1]))[..., 0, :]
-            teacher, labelled = td.get("expert_action"), td.get("expert_weight")[..., 0] > 0
+            teacher, labelled = td.get("expert_action"), td.get("expert_weight").reshape(td.shape) > 0
             loc, teacher = loc[labelled], teacher[labelled]
             sums += ((loc[:, :3].clamp(-1, 1) - teacher[:, :3]).abs() * scale).sum(0)
             same = (loc[:, 3] > 0) == (teacher[:, 3] > 0)
