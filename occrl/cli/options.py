@@ -58,7 +58,10 @@ SETTING_TYPES = {
             "promotion_eval_tasks",
         )
     },
-    **{name: FRACTION for name in ("heatmap_fraction", "imitation_beta_min", "promote_threshold", "gae_lambda", "noise")},
+    **{
+        name: FRACTION
+        for name in ("heatmap_fraction", "imitation_beta_min", "promote_threshold", "gae_lambda", "noise", "teacher_action_noise")
+    },
     "gamma": DISCOUNT,
 }
 

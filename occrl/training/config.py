@@ -166,6 +166,11 @@ class TrainConfig:
     it out of the shelf to search (HierarchicalPlanner(replan_inside=True), the settings of
     hybrid-ompl's proposer, which acting alone solves 84.0 % of the held-out stage-2 tasks): on
     the learner's states inside the shelf its labels are then plans from there, not "back out"."""
+    teacher_action_noise: float = 0.0
+    """The "hierarchical" and "clearing-observed" teachers: where the teacher acts, Gaussian noise
+    of this standard deviation (action units) is added to its executed motion, the label staying
+    its decision (DART: demonstrations of recoveries from a learner's small errors; beyond the
+    paper, docs/decisions.md)."""
     imitation_beta_iters: int = 10
     """The teacher acts with probability decaying from 1 to imitation_beta_min over these iterations
     (0: imitation_beta_min from the start)."""
@@ -269,6 +274,10 @@ class TrainConfig:
                     f"teacher_label_kinds must be 'all' or comma-separated kinds of {ACTION_KINDS} with the "
                     f"hierarchical teacher, got {self.teacher_label_kinds!r} (teacher {self.imitation_teacher!r})"
                 )
+        if self.teacher_action_noise > 0 and self.imitation_teacher not in ("hierarchical", "clearing-observed"):
+            raise ValueError(
+                f"teacher_action_noise applies to imitation_teacher 'hierarchical' or 'clearing-observed', not {self.imitation_teacher!r}"
+            )
         if self.teacher_replan_inside and "hierarchical" not in (self.imitation_teacher, self.takeover_retriever):
             raise ValueError(
                 "teacher_replan_inside applies to the hierarchical teacher or taker-over (imitation_teacher or "

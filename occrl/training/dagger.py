@@ -114,6 +114,13 @@ class OnlineTeacherPolicy(ExpertMixPolicy):
     located target and leaves the search to the learner); ``"expert_weight"`` is 1 on those steps
     and 0 elsewhere (:func:`occrl.objectives.imitation_nll` averages over the labelled ones).
 
+    ``action_noise`` (DART, Laskey et al. 2017): where the teacher acts, the executed motion
+    (forward, lateral, rotation) is its decision plus Gaussian noise of this standard deviation
+    (in action units, clipped to [-1, 1]; the gripper command is left as decided), while the
+    label stays the decision. The teacher then shows how it recovers from the small errors a
+    learner makes, on states near its own path; the noise comes from torch's global generator
+    (seeded per iteration by the trainer).
+
     Examples:
         >>> import torch
         >>> from occrl.baselines import HierarchicalPlanner
@@ -135,8 +142,12 @@ class OnlineTeacherPolicy(ExpertMixPolicy):
         beta: float = 0.0,
         label_kinds: tuple[str, ...] | None = None,
         from_first_sight: bool = False,
+        action_noise: float = 0.0,
     ) -> None:
         super().__init__(policy, teacher, beta)
+        if not 0.0 <= float(action_noise) <= 1.0:
+            raise ValueError(f"action_noise must be in [0, 1] (a standard deviation in action units), got {action_noise!r}")
+        self.action_noise = float(action_noise)
         if "privileged" in teacher.in_keys:
             raise ValueError("the online teacher must read observations only; its in_keys contain 'privileged'")
         if label_kinds is not None and not hasattr(teacher, "last_action_kinds"):
@@ -169,7 +180,12 @@ class OnlineTeacherPolicy(ExpertMixPolicy):
             weight = torch.tensor([k in self.label_kinds for k in kinds], dtype=torch.float32).reshape(*label.shape[:-1], 1)
             tensordict.set("expert_weight", weight)
         tensordict.set("teacher_acts", acts.clone())
-        tensordict.set("action", torch.where(acts, label, tensordict.get("action")))
+        executed = label
+        if self.action_noise > 0.0:
+            noise = torch.randn(label.shape) * self.action_noise
+            noise[..., 3] = 0.0  # the gripper command as decided
+            executed = (label + noise).clamp(-1.0, 1.0)
+        tensordict.set("action", torch.where(acts, executed, tensordict.get("action")))
         return tensordict
 
 

@@ -85,9 +85,9 @@ def collection_policy(config: TrainConfig, acting_policy, expert):
     imitation (the share the teacher acts is set per iteration on the returned policy)."""
     if config.imitation_iters > 0 and config.imitation_teacher == "hierarchical":
         kinds = None if config.teacher_label_kinds == "all" else tuple(config.teacher_label_kinds.split(","))
-        return OnlineTeacherPolicy(acting_policy, expert, 0.0, label_kinds=kinds)
+        return OnlineTeacherPolicy(acting_policy, expert, 0.0, label_kinds=kinds, action_noise=config.teacher_action_noise)
     if config.imitation_iters > 0 and config.imitation_teacher == "clearing-observed":
-        return OnlineTeacherPolicy(acting_policy, expert, 0.0, from_first_sight=True)
+        return OnlineTeacherPolicy(acting_policy, expert, 0.0, from_first_sight=True, action_noise=config.teacher_action_noise)
     if config.imitation_iters > 0 and config.imitation_teacher != "self":
         return ExpertMixPolicy(acting_policy, expert, 0.0)
     return acting_policy

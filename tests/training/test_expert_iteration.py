@@ -254,3 +254,34 @@ def test_clearing_observed_teacher_with_successes_only(tmp_path):
     tr.close()
     (batch,) = tr.learner.dagger.batches
     assert torch.equal(batch["expert_weight"].reshape(batch.shape), acted * succeeded)
+
+
+def test_clearing_observed_teacher_with_action_noise(tmp_path):
+    """teacher_action_noise (DART): where the teacher acts its motion is disturbed, the gripper
+    command and the labels are its decisions; other teachers refuse the setting."""
+    cfg = get_train_config(
+        "tiny",
+        imitation_iters=5,
+        imitation_teacher="clearing-observed",
+        imitation_beta_iters=0,
+        imitation_beta_min=1.0,
+        teacher_action_noise=0.2,
+        start_stage=1,
+        steps_per_env=20,
+    )
+    tr = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False, init_weights=weights_file("occnet"))
+    data = tr._collect()
+    tr.close()
+    acted = data["teacher_acts"].reshape(data.shape)
+    assert bool(acted.any())
+    executed, decided = data["action"][acted], data["expert_action"][acted]
+    assert torch.equal(executed[:, 3], decided[:, 3])  # the gripper command as decided
+    inside = decided[:, :3].abs() < 0.5  # far from the clipping bounds
+    difference = (executed[:, :3] - decided[:, :3])[inside]
+    assert 0.15 < float(difference.std()) < 0.25 and abs(float(difference.mean())) < 0.05
+    with pytest.raises(ValueError, match="teacher_action_noise applies to"):
+        get_train_config("tiny", imitation_iters=5, teacher_action_noise=0.2).validate()
+    from occrl.training.dagger import OnlineTeacherPolicy
+
+    with pytest.raises(ValueError, match="action_noise must be in"):
+        OnlineTeacherPolicy(tr.net.policy, tr.expert, action_noise=-0.1)
