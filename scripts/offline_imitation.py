@@ -17,6 +17,8 @@ the learner, so the data can be collected once and trained on for as long as the
     # 3. each saved network on the held-out tasks (named so that the plot finds them)
     occrl eval --method stochastic-gen --stage 2 --tasks 200 --workers 1 --weights OUT/weights_step6000.pt \
         --out OUT/stochastic-gen_s2_step6000.json
+    # the data run's size and its teacher's success
+    python scripts/offline_imitation.py --data DATA --summary
     # how far each network's mean action is from the teacher's, on a data run none was fitted on
     # (step 1 with another --seed and fewer --iterations)
     python scripts/offline_imitation.py --data DATA2 --assess occnet-takeover OUT/weights_step6000.pt
@@ -84,6 +86,9 @@ class Args:
     """Share of the labelled sequences held out of the fit, for the validation NLL."""
     seed: int = 0
     """Seeds the validation split and the minibatch draws."""
+    summary: bool = False
+    """Fit nothing: print the data run's size and its episodes' success (the teacher's, where it
+    acted in every episode) and stop."""
     assess: list[str] = dataclasses.field(default_factory=list)
     """Fit nothing: print, for each of these networks, how far its mean action lies from the
     teacher's on every labelled frame of --data (a data run that none of them was fitted on)."""
@@ -95,6 +100,9 @@ def parse_args(argv: list[str] | None = None) -> Args:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     for f in dataclasses.fields(Args):
         required = f.default is dataclasses.MISSING
+        if f.name == "summary":
+            parser.add_argument("--summary", action="store_true", help=docs[f.name])
+            continue
         if f.name == "assess":
             parser.add_argument("--assess", nargs="+", default=[], metavar="WEIGHTS", help=docs[f.name])
             continue
@@ -105,8 +113,8 @@ def parse_args(argv: list[str] | None = None) -> Args:
     args = Args(**vars(parser.parse_args(argv)))
     if args.steps < 1 or args.save_every < 1 or args.log_every < 1 or args.minibatch < 0 or args.lr < 0:
         parser.error(f"--steps, --save-every and --log-every must be >= 1, --minibatch and --lr >= 0; got {args}")
-    if not args.out and not args.assess:
-        parser.error("--out is needed (the fit's run folder) unless --assess is given")
+    if not args.out and not args.assess and not args.summary:
+        parser.error("--out is needed (the fit's run folder) unless --assess or --summary is given")
     if not 0.0 < args.validation_fraction < 1.0:
         parser.error(f"--validation-fraction must lie in (0, 1), got {args.validation_fraction}")
     return args
@@ -144,6 +152,23 @@ def labelled_sequences(data_run: Path) -> tuple[TrainConfig, TensorDictBase]:
             batch.set("expert_weight", torch.ones(batch.shape))
         kept.append(batch[batch.get("expert_weight").flatten(1).sum(1) > 0])
     return config, torch.cat(kept)
+
+
+def data_summary(data_run: Path, data: TensorDictBase) -> str:
+    """One line: the data run's iterations, its episodes (the first of each world in each
+    iteration, as the trainer counts them) and their success with a 95 % interval, and what the
+    fit reads of it."""
+    iterations = load_checkpoint(data_run / CHECKPOINT)["state"]["iteration"]
+    rows = [json.loads(line) for line in (data_run / "metrics.jsonl").read_text().splitlines() if line.strip()]
+    rows = [r for r in rows if r["iteration"] <= iterations]
+    episodes = sum(r["episodes"] for r in rows)
+    rate = sum(r["success_rate"] * r["episodes"] for r in rows) / episodes
+    half = 1.96 * math.sqrt(rate * (1 - rate) / episodes)
+    labelled = int((data.get("expert_weight") > 0).sum())
+    return (
+        f"{data_run}: {iterations} iterations, {episodes} episodes, success {100 * rate:.1f} % "
+        f"({100 * (rate - half):.1f}-{100 * (rate + half):.1f}); {data.shape[0]} labelled sequences, {labelled} labelled frames"
+    )
 
 
 def validation_nll(net, data: TensorDictBase, min_scale: float, chunk: int) -> float:
@@ -233,14 +258,16 @@ def main(argv: list[str] | None = None) -> None:
         return
     args = parse_args(argv)
     config, data = labelled_sequences(Path(args.data))
+    print(data_summary(Path(args.data), data))
+    if args.summary:
+        return
     overrides = {"minibatch_envs": args.minibatch or config.minibatch_envs, "lr": args.lr or config.lr or 3e-4}
     config = dataclasses.replace(config, **overrides)
     split = torch.randperm(data.shape[0], generator=torch.Generator().manual_seed(args.seed))
     n_val = max(1, round(args.validation_fraction * data.shape[0]))
     validation, train = data[split[:n_val]], DaggerBuffer(capacity=1)
     train.batches = [data[split[n_val:]]]
-    labelled = int((data.get("expert_weight") > 0).sum())
-    print(f"{data.shape[0]} labelled sequences ({labelled} labelled frames): {len(train)} to fit, {n_val} held out")
+    print(f"{len(train)} sequences to fit, {n_val} held out")
 
     if args.assess:
         print("| network | forward (mm) | lateral (mm) | rotation (deg) | close agreement | where the teacher closes |")
