@@ -162,12 +162,15 @@ def data_summary(data_run: Path, data: TensorDictBase) -> str:
     rows = [json.loads(line) for line in (data_run / "metrics.jsonl").read_text().splitlines() if line.strip()]
     rows = [r for r in rows if r["iteration"] <= iterations]
     episodes = sum(r["episodes"] for r in rows)
-    rate = sum(r["success_rate"] * r["episodes"] for r in rows) / episodes
-    half = 1.96 * math.sqrt(rate * (1 - rate) / episodes)
+    success = "no episode finished"
+    if episodes > 0:
+        rate = sum(r["success_rate"] * r["episodes"] for r in rows) / episodes
+        half = 1.96 * math.sqrt(rate * (1 - rate) / episodes)
+        success = f"success {100 * rate:.1f} % ({100 * (rate - half):.1f}-{100 * (rate + half):.1f})"
     labelled = int((data.get("expert_weight") > 0).sum())
     return (
-        f"{data_run}: {iterations} iterations, {episodes} episodes, success {100 * rate:.1f} % "
-        f"({100 * (rate - half):.1f}-{100 * (rate + half):.1f}); {data.shape[0]} labelled sequences, {labelled} labelled frames"
+        f"{data_run}: {iterations} iterations, {episodes} episodes, {success}; "
+        f"{data.shape[0]} labelled sequences, {labelled} labelled frames"
     )
 
 

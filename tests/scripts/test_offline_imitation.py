@@ -31,7 +31,9 @@ def test_fit_lowers_the_validation_nll_and_resumes_exactly(tmp_path):
     _data_run(data, buffer_iters=10)
     straight, resumed = tmp_path / "straight", tmp_path / "resumed"
     out = _fit(data, straight, 6)
-    assert "2 iterations, 8 episodes" in out and "8 labelled sequences, 64 labelled frames" in out  # every frame labelled (scripted)
+    assert (
+        "2 iterations, 0 episodes, no episode finished" in out and "8 labelled sequences, 64 labelled frames" in out
+    )  # every frame labelled (scripted)
     assert "7 sequences to fit, 1 held out" in out
     _fit(data, resumed, 3)
     assert "resumed" in _fit(data, resumed, 6)
