@@ -61,6 +61,8 @@ from occrl.training.learner import Learner, recurrent_layers_training
 from occrl.training.run_folder import CHECKPOINT
 
 CHECKPOINT_MINUTES = 10.0  # a resume checkpoint at least this often
+# options a resumed fit may change (how long, how often it reports) or that fit nothing
+NOT_SETTINGS = ("steps", "save_every", "log_every", "summary", "assess")
 
 
 @dataclass
@@ -288,12 +290,12 @@ def main(argv: list[str] | None = None) -> None:
     learner = Learner(net, config, torch.device("cpu"))
     generator = torch.Generator().manual_seed(args.seed + 1)
     losses: list[float] = []
-    settings = {k: v for k, v in dataclasses.asdict(args).items() if k not in ("steps", "save_every", "log_every")}
+    settings = {k: v for k, v in dataclasses.asdict(args).items() if k not in NOT_SETTINGS}
     settings["sequences"] = data.shape[0]  # the data run's folder may have collected on since
     step = 0
     if (out / CHECKPOINT).exists():
         obj = load_checkpoint(out / CHECKPOINT, net, learner.optimizer)
-        if obj["state"]["settings"] != settings:
+        if {k: v for k, v in obj["state"]["settings"].items() if k not in NOT_SETTINGS} != settings:
             raise ValueError(f"{out / CHECKPOINT} was written with other settings ({obj['state']['settings']}); use another --out")
         step = obj["state"]["step"]
         generator.set_state(obj["state"]["generator"])
