@@ -61,8 +61,9 @@ from occrl.training.learner import Learner, recurrent_layers_training
 from occrl.training.run_folder import CHECKPOINT
 
 CHECKPOINT_MINUTES = 10.0  # a resume checkpoint at least this often
-# options a resumed fit may change (how long, how often it reports) or that fit nothing
-NOT_SETTINGS = ("steps", "save_every", "log_every", "summary", "assess")
+# options a resumed fit may change (how long, how often it reports, where the folders lie: the data
+# set is recognised by its size) or that fit nothing
+NOT_SETTINGS = ("steps", "save_every", "log_every", "summary", "assess", "data", "out")
 
 
 @dataclass
@@ -268,12 +269,6 @@ def main(argv: list[str] | None = None) -> None:
         return
     overrides = {"minibatch_envs": args.minibatch or config.minibatch_envs, "lr": args.lr or config.lr or 3e-4}
     config = dataclasses.replace(config, **overrides)
-    split = torch.randperm(data.shape[0], generator=torch.Generator().manual_seed(args.seed))
-    n_val = max(1, round(args.validation_fraction * data.shape[0]))
-    validation, train = data[split[:n_val]], DaggerBuffer(capacity=1)
-    train.batches = [data[split[n_val:]]]
-    print(f"{len(train)} sequences to fit, {n_val} held out")
-
     if args.assess:
         print("| network | forward (mm) | lateral (mm) | rotation (deg) | close agreement | where the teacher closes |")
         print("| --- | --- | --- | --- | --- | --- |")
@@ -284,6 +279,11 @@ def main(argv: list[str] | None = None) -> None:
                 f"{100 * e['close_agreement']:.1f} % | {100 * e['close_agreement_where_teacher_closes']:.1f} % |"
             )
         return
+    split = torch.randperm(data.shape[0], generator=torch.Generator().manual_seed(args.seed))
+    n_val = max(1, round(args.validation_fraction * data.shape[0]))
+    validation, train = data[split[:n_val]], DaggerBuffer(capacity=1)
+    train.batches = [data[split[n_val:]]]
+    print(f"{len(train)} sequences to fit, {n_val} held out")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     net = load_weights(weights_file(args.init_weights))

@@ -47,6 +47,13 @@ def test_fit_lowers_the_validation_nll_and_resumes_exactly(tmp_path):
     assert all(torch.equal(a[k], b[k]) for k in a)
     assert not all(torch.equal(a[k], start[k]) for k in a)  # it learnt
     assert (straight / "weights_step3.pt").exists() and (straight / "weights_step6.pt").exists()
+    table = _run(
+        "scripts/offline_imitation.py", "--data", str(data), "--assess", str(data / "weights.pt"), str(straight / "weights.pt")
+    ).stdout
+    rows = [line.split("|")[2:7] for line in table.splitlines() if line.startswith(f"| {tmp_path}")]
+    assert len(rows) == 2 and "held out" not in table  # the whole data set, no split
+    errors = [[float(cell.strip().rstrip(" %")) for cell in row] for row in rows]
+    assert errors[1][:3] != errors[0][:3] and all(0 <= e[3] <= 100 for e in errors)
     evaluation = straight / "stochastic-gen_s2_step6.json"
     _run("-m", "occrl.cli", "eval", "--method", "stochastic-gen", "--stage", "2", "--tasks", "2", "--workers", "1", "--no-progress",
          "--weights", str(straight / "weights_step6.pt"), "--out", str(evaluation))  # fmt: skip
