@@ -72,7 +72,7 @@ class Args:
     """Run folder of the data run: its checkpoint names its settings and its DAgger data set."""
     out: str = ""
     """Run folder of this fit: metrics.jsonl, weights_step<N>.pt, weights.pt, checkpoint.pt
-    (needed unless --assess)."""
+    (needed unless --assess or --summary)."""
     init_weights: str = "occnet"
     """Network to start from: a pretrained name or a weights file."""
     steps: int = 12000
