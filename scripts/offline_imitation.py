@@ -55,7 +55,7 @@ from occrl.modules.weights import load_weights, save_weights
 from occrl.objectives import imitation_nll
 from occrl.pretrained import network_name, weights_file
 from occrl.training import load_checkpoint, save_checkpoint
-from occrl.training.config import TrainConfig
+from occrl.training.config import TrainConfig, dataclass_field_docs
 from occrl.training.dagger_buffer import DaggerBuffer, as_float
 from occrl.training.learner import Learner, recurrent_layers_training
 from occrl.training.run_folder import CHECKPOINT
@@ -99,7 +99,7 @@ class Args:
 
 def parse_args(argv: list[str] | None = None) -> Args:
     """An option per :class:`Args` field; its help the field's docstring."""
-    docs = field_docs()
+    docs = dataclass_field_docs(Args)
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     for f in dataclasses.fields(Args):
         required = f.default is dataclasses.MISSING
@@ -121,15 +121,6 @@ def parse_args(argv: list[str] | None = None) -> Args:
     if not 0.0 < args.validation_fraction < 1.0:
         parser.error(f"--validation-fraction must lie in (0, 1), got {args.validation_fraction}")
     return args
-
-
-def field_docs() -> dict[str, str]:
-    """Each :class:`Args` field's docstring (the string literal after it in the class body)."""
-    import ast
-    import inspect
-
-    body = ast.parse(inspect.getsource(Args)).body[0].body
-    return {a.target.id: b.value.value for a, b in zip(body, body[1:]) if isinstance(a, ast.AnnAssign) and isinstance(b, ast.Expr)}
 
 
 def labelled_sequences(data_run: Path) -> tuple[TrainConfig, TensorDictBase]:

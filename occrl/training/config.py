@@ -8,7 +8,7 @@ import torch
 
 from occrl.envs import world_constants as C
 
-__all__ = ["TrainConfig", "TRAIN_PRESETS", "SETTING_CHOICES", "get_train_config", "training_device"]
+__all__ = ["TrainConfig", "TRAIN_PRESETS", "SETTING_CHOICES", "get_train_config", "training_device", "dataclass_field_docs"]
 
 # The values a string setting accepts (TrainConfig.validate checks them; ``occrl train`` offers them).
 SETTING_CHOICES: dict[str, tuple[str, ...]] = {
@@ -22,6 +22,28 @@ SETTING_CHOICES: dict[str, tuple[str, ...]] = {
     "takeover_retriever": ("scripted", "clearing", "hierarchical"),
     "takeover_at": ("first-sight", "start"),
 }
+
+
+def dataclass_field_docs(cls: type) -> dict[str, str]:
+    """Each field's docstring (the string literal under it in the class body, whitespace
+    collapsed), by name: the help of options made from a dataclass's fields (``occrl train``'s
+    from :class:`TrainConfig`, a script's arguments).
+
+    Examples:
+        >>> from occrl.training.config import TrainConfig, dataclass_field_docs
+        >>> dataclass_field_docs(TrainConfig)["minibatch_envs"]
+        'Sequences (each steps_per_env long) per minibatch.'
+    """
+    import ast
+    import inspect
+    import textwrap
+
+    body = ast.parse(textwrap.dedent(inspect.getsource(cls))).body[0].body
+    docs = {}
+    for node, after in zip(body, body[1:]):
+        if isinstance(node, ast.AnnAssign) and isinstance(after, ast.Expr) and isinstance(after.value, ast.Constant):
+            docs[node.target.id] = " ".join(str(after.value.value).split())
+    return docs
 
 
 @dataclass(frozen=True)
@@ -299,16 +321,7 @@ class TrainConfig:
             >>> TrainConfig.field_docs()["lr"]
             'Learning rate.'
         """
-        import ast
-        import inspect
-        import textwrap
-
-        body = ast.parse(textwrap.dedent(inspect.getsource(cls))).body[0].body
-        docs = {}
-        for node, after in zip(body, body[1:]):
-            if isinstance(node, ast.AnnAssign) and isinstance(after, ast.Expr) and isinstance(after.value, ast.Constant):
-                docs[node.target.id] = " ".join(str(after.value.value).split())
-        return docs
+        return dataclass_field_docs(cls)
 
     @classmethod
     def from_dict(cls, d: dict) -> "TrainConfig":
