@@ -141,10 +141,12 @@ class TrainConfig:
     self-imitation, its successful episodes cloned)."""
     label_episodes: str = "all"
     """Which episodes' frames are imitation labels with the teachers whose labels are the actions
-    taken ("self", "hybrid-acting", "clearing-observed"): "all", or "success" (only the frames of episodes that end in
-    success within the batch; the others still train the value and heat-map heads). With "self"
-    the cloned successes are a policy-gradient step on the success probability (beyond the paper:
-    docs/decisions.md, "Cloning only successes")."""
+    taken ("self", "hybrid-acting", "clearing-observed") and with "hierarchical": "all", or
+    "success" (only the frames of episodes that end in success within the batch; the others
+    still train the value and heat-map heads). With "hierarchical", "success" keeps only the
+    frames of the episodes the teacher acted in (its own successful demonstrations; its labels on
+    the learner's states are dropped). With "self" the cloned successes are a policy-gradient step
+    on the success probability (beyond the paper: docs/decisions.md, "Cloning only successes")."""
     teacher_inference: str = "torch"
     """Network inference of the hybrid-planner teachers ("hybrid", "hybrid-acting"): "torch" or
     "onnxruntime" (pip install onnx onnxruntime; ~1.2x the labels per second, the same network to
@@ -265,10 +267,10 @@ class TrainConfig:
             raise ValueError(
                 f"takeover_retriever {self.takeover_retriever!r} / takeover_at {self.takeover_at!r} need retrieval_takeover > 0 (the share taken over)"
             )
-        if self.label_episodes != "all" and self.imitation_teacher not in ("self", "hybrid-acting", "clearing-observed"):
+        if self.label_episodes != "all" and self.imitation_teacher not in ("self", "hybrid-acting", "clearing-observed", "hierarchical"):
             raise ValueError(
                 f"label_episodes={self.label_episodes!r} applies to the teachers whose labels are the actions taken "
-                f"('self', 'hybrid-acting', 'clearing-observed'), not {self.imitation_teacher!r}"
+                f"('self', 'hybrid-acting', 'clearing-observed') and to 'hierarchical', not {self.imitation_teacher!r}"
             )
         if self.imitation_teacher == "self" and self.label_episodes != "success":
             raise ValueError(

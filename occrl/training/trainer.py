@@ -337,7 +337,13 @@ class Trainer:
                 elif phase == "imitation" and c.imitation_teacher == "self":
                     data.set("expert_action", data.get("action").clone())  # the learner acted
                 elif c.imitation_teacher == "hierarchical":
-                    pass  # labelled while collecting (OnlineTeacherPolicy), in every phase
+                    # labelled while collecting (OnlineTeacherPolicy), in every phase; with successes
+                    # only, its own episodes only (below: those that succeed)
+                    if phase == "imitation" and c.label_episodes == "success":
+                        acted = data.get("teacher_acts").reshape(data.shape).to(torch.float32)
+                        if "expert_weight" in data.keys():  # teacher_label_kinds
+                            acted = acted * data.get("expert_weight").reshape(data.shape)
+                        data.set("expert_weight", acted)
                 elif phase == "imitation" and c.imitation_teacher == "clearing-observed":
                     # labelled while collecting; only the teacher's own retrievals are labels: on the
                     # learner's states its corrections are mostly "back out first" (docs/decisions.md)

@@ -13,6 +13,7 @@ from occrl.baselines.hierarchical import HierarchicalPlanner
 from occrl.envs import make_env
 from occrl.envs import world_constants as C
 from occrl.modules import make_occnet
+from occrl.pretrained import weights_file
 from occrl.training import Trainer, get_train_config
 from occrl.training.dagger import OnlineTeacherPolicy
 from tests.helpers import scene
@@ -250,3 +251,31 @@ def test_the_teacher_can_plan_from_inside_the_shelf(tmp_path):
     plain.close()
     with pytest.raises(ValueError, match="teacher_replan_inside applies to the hierarchical teacher"):
         get_train_config("tiny", teacher_replan_inside=True).validate()  # the scripted teacher has no such setting
+
+
+def test_the_hierarchical_teachers_own_successes_only(tmp_path):
+    """label_episodes="success" with the hierarchical teacher: only the frames of the episodes it
+    acted in and that succeed within the batch stay labels (its own successful demonstrations)."""
+    from occrl.training.stats import successful_episode_frames
+
+    cfg = get_train_config(
+        "tiny",
+        imitation_iters=5,
+        imitation_teacher="hierarchical",
+        collector="single",
+        imitation_beta_iters=0,
+        imitation_beta_min=0.5,
+        label_episodes="success",
+        start_stage=1,
+        steps_per_env=30,
+    )
+    tr = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False, init_weights=weights_file("occnet"))
+    data = tr._collect()  # the batch the first iteration collects (each iteration is seeded)
+    acted = data["teacher_acts"].reshape(data.shape).to(torch.float32)
+    succeeded = successful_episode_frames(data).to(torch.float32)
+    assert bool((acted * succeeded).sum() > 0)  # the teacher solved some of its episodes
+    assert bool(((acted == 0) & (succeeded == 1)).any())  # and the learner some of its own: not labels
+    tr.train(iterations=1)
+    tr.close()
+    (batch,) = tr.learner.dagger.batches
+    assert torch.equal(batch["expert_weight"].reshape(batch.shape), acted * succeeded)
