@@ -24,6 +24,8 @@ the learner, so the data can be collected once and trained on for as long as the
     python scripts/offline_imitation.py --data DATA2 --assess occnet-takeover OUT/weights_step6000.pt
     # 4. training loss, validation NLL and held-out success against steps, for one or more fits
     python scripts/offline_imitation.py --plot curves.png OUT [OUT2 ...]
+    # the average of several saved networks' weights (stochastic weight averaging), to evaluate as one
+    python scripts/offline_imitation.py --average AVERAGE.pt OUT/weights_step6000.pt OUT/weights_step7000.pt ...
 
 The loss is the trainer's (:meth:`occrl.training.learner.Learner.imitation_terms`, the data run's
 settings: the teacher's negative log-likelihood on labelled frames, the critic and heat-map terms
@@ -210,6 +212,20 @@ def plot(path: str, runs: list[str]) -> None:
     print(f"wrote {path}")
 
 
+def average_weights(path: str, files: list[str]) -> None:
+    """Write a weights file whose floating-point tensors are the mean of ``files``' (networks of the
+    same configuration); the others (batch-norm counters) and the configuration are the first's."""
+    nets = [load_weights(f) for f in files]
+    configs = {json.dumps(n.config.to_dict(), sort_keys=True) for n in nets}
+    if len(configs) > 1:
+        raise SystemExit(f"--average needs networks of one configuration; {files} hold {len(configs)}")
+    states = [n.state_dict() for n in nets]
+    averaged = {k: torch.stack([s[k] for s in states]).mean(0) if v.is_floating_point() else v for k, v in states[0].items()}
+    nets[0].load_state_dict(averaged)
+    save_weights(path, nets[0], {"note": "scripts/offline_imitation.py --average of " + ", ".join(files)})
+    print(f"wrote {path} (the average of {len(files)} networks)")
+
+
 def action_errors(net, data: TensorDictBase, chunk: int) -> dict[str, float]:
     """On the labelled frames of ``data``: the mean absolute difference between the policy's mean
     action and the teacher's (forward and lateral in mm, rotation in degrees), and the share of
@@ -252,6 +268,11 @@ def main(argv: list[str] | None = None) -> None:
         if len(argv) < 3:
             raise SystemExit("usage: offline_imitation.py --plot FIGURE.png FIT_FOLDER [FIT_FOLDER ...]")
         plot(argv[1], argv[2:])
+        return
+    if argv[:1] == ["--average"]:
+        if len(argv) < 4:
+            raise SystemExit("usage: offline_imitation.py --average OUT.pt WEIGHTS WEIGHTS [WEIGHTS ...]")
+        average_weights(argv[1], argv[2:])
         return
     args = parse_args(argv)
     config, data = labelled_sequences(Path(args.data))

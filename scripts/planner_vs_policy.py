@@ -142,6 +142,21 @@ NETWORKS = [
         "results/clearing-observed/imitation-only/successes-beta1/stochastic-gen_s2_iteration75.json",
         "results/clearing-observed/imitation-only/successes-beta1/hybrid-4x4_s2_iteration75.json",
     ),
+    Network(
+        "offline imitation of clearing-observed, 4,000 steps",
+        "results/offline-imitation/fit-lr1e-4/stochastic-gen_s2_step4000.json",
+        "results/offline-imitation/fit-lr1e-4/hybrid-4x4_s2_step4000.json",
+    ),
+    Network(
+        "offline imitation, disturbed demonstrations (DART 0.1), 4,000 steps",
+        "results/offline-imitation/fit-dart010-lr1e-4/stochastic-gen_s2_step4000.json",
+        "results/offline-imitation/fit-dart010-lr1e-4/hybrid-4x4_s2_step4000.json",
+    ),
+    Network(
+        "offline imitation, disturbed demonstrations (DART 0.1), 8,000 steps",
+        "results/offline-imitation/fit-dart010-lr1e-4/stochastic-gen_s2_step8000.json",
+        "results/offline-imitation/fit-dart010-lr1e-4/hybrid-4x4_s2_step8000.json",
+    ),
 ]
 
 

@@ -59,6 +59,12 @@ def test_fit_lowers_the_validation_nll_and_resumes_exactly(tmp_path):
          "--weights", str(straight / "weights_step6.pt"), "--out", str(evaluation))  # fmt: skip
     out = _run("scripts/offline_imitation.py", "--plot", str(tmp_path / "curves.png"), str(straight), str(resumed)).stdout
     assert "wrote" in out and (tmp_path / "curves.png").stat().st_size > 10_000
+    saves = [straight / "weights_step3.pt", straight / "weights_step6.pt"]
+    _run("scripts/offline_imitation.py", "--average", str(tmp_path / "average.pt"), *map(str, saves))
+    average = torch.load(tmp_path / "average.pt", weights_only=False)["model"]
+    three, six = (torch.load(f, weights_only=False)["model"] for f in saves)
+    moved = [k for k in average if three[k].is_floating_point() and not torch.equal(three[k], six[k])]
+    assert moved and all(torch.allclose(average[k], (three[k] + six[k]) / 2) for k in moved)
 
 
 def test_a_data_run_that_dropped_iterations_is_refused(tmp_path):
