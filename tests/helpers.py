@@ -42,3 +42,24 @@ def checkpoint_as_written_before(run_dir, config, edit) -> None:
     checkpoint = torch.load(run_dir / CHECKPOINT, weights_only=True)
     edit(checkpoint)
     torch.save(checkpoint, run_dir / CHECKPOINT)
+
+
+def first_iteration_labels(config, run_dir):
+    """Train one iteration of ``config`` (from ``occnet``) in ``run_dir`` and return, per frame of
+    the batch it collected, whether the teacher acted, whether the frame's episode succeeded, and
+    the imitation weight the DAgger aggregate stored (each iteration's collection is seeded, so the
+    batch collected first is the one trained on)."""
+    import torch
+
+    from occrl.pretrained import weights_file
+    from occrl.training import Trainer
+    from occrl.training.stats import successful_episode_frames
+
+    trainer = Trainer(config, run_dir, seed=0, progress=False, tensorboard=False, init_weights=weights_file("occnet"))
+    data = trainer._collect()
+    acted = data["teacher_acts"].reshape(data.shape).to(torch.float32)
+    succeeded = successful_episode_frames(data).to(torch.float32)
+    trainer.train(iterations=1)
+    trainer.close()
+    (batch,) = trainer.learner.dagger.batches
+    return acted, succeeded, batch["expert_weight"].reshape(batch.shape)

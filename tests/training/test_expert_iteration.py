@@ -11,6 +11,7 @@ from occrl.planners import HybridPlanner
 from occrl.training import Trainer, get_train_config
 from occrl.training.dagger import label_with_planner
 from occrl.pretrained import weights_file
+from tests.helpers import first_iteration_labels
 
 
 def test_planner_labels_are_its_decisions_without_privileged_state():
@@ -232,8 +233,6 @@ def test_hybrid_acting_teacher_with_fixed_weights_teaches_a_network_without_heat
 def test_clearing_observed_teacher_with_successes_only(tmp_path):
     """label_episodes="success" with the observed clearing teacher: its labels are the actions it
     took, so only the frames it acted on in episodes that succeed within the batch stay labels."""
-    from occrl.training.stats import successful_episode_frames
-
     cfg = get_train_config(
         "tiny",
         imitation_iters=5,
@@ -244,16 +243,10 @@ def test_clearing_observed_teacher_with_successes_only(tmp_path):
         start_stage=1,
         steps_per_env=40,
     )
-    tr = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False, init_weights=weights_file("occnet"))
-    data = tr._collect()  # the batch the first iteration collects (each iteration is seeded)
-    acted = data["teacher_acts"].reshape(data.shape).to(torch.float32)
-    succeeded = successful_episode_frames(data).to(torch.float32)
+    acted, succeeded, stored = first_iteration_labels(cfg, tmp_path)
     assert bool(((acted == 1) & (succeeded == 0)).any())  # some of its frames are not labels: episodes not finished
     assert bool((acted * succeeded).sum() > 0)  # and some are
-    tr.train(iterations=1)
-    tr.close()
-    (batch,) = tr.learner.dagger.batches
-    assert torch.equal(batch["expert_weight"].reshape(batch.shape), acted * succeeded)
+    assert torch.equal(stored, acted * succeeded)
 
 
 def test_clearing_observed_teacher_with_action_noise(tmp_path):

@@ -13,10 +13,9 @@ from occrl.baselines.hierarchical import HierarchicalPlanner
 from occrl.envs import make_env
 from occrl.envs import world_constants as C
 from occrl.modules import make_occnet
-from occrl.pretrained import weights_file
 from occrl.training import Trainer, get_train_config
 from occrl.training.dagger import OnlineTeacherPolicy
-from tests.helpers import scene
+from tests.helpers import first_iteration_labels, scene
 
 TOLERANCE = (0.01, math.radians(10.0))
 
@@ -256,8 +255,6 @@ def test_the_teacher_can_plan_from_inside_the_shelf(tmp_path):
 def test_the_hierarchical_teachers_own_successes_only(tmp_path):
     """label_episodes="success" with the hierarchical teacher: only the frames of the episodes it
     acted in and that succeed within the batch stay labels (its own successful demonstrations)."""
-    from occrl.training.stats import successful_episode_frames
-
     cfg = get_train_config(
         "tiny",
         imitation_iters=5,
@@ -269,13 +266,7 @@ def test_the_hierarchical_teachers_own_successes_only(tmp_path):
         start_stage=1,
         steps_per_env=30,
     )
-    tr = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False, init_weights=weights_file("occnet"))
-    data = tr._collect()  # the batch the first iteration collects (each iteration is seeded)
-    acted = data["teacher_acts"].reshape(data.shape).to(torch.float32)
-    succeeded = successful_episode_frames(data).to(torch.float32)
+    acted, succeeded, stored = first_iteration_labels(cfg, tmp_path)
     assert bool((acted * succeeded).sum() > 0)  # the teacher solved some of its episodes
     assert bool(((acted == 0) & (succeeded == 1)).any())  # and the learner some of its own: not labels
-    tr.train(iterations=1)
-    tr.close()
-    (batch,) = tr.learner.dagger.batches
-    assert torch.equal(batch["expert_weight"].reshape(batch.shape), acted * succeeded)
+    assert torch.equal(stored, acted * succeeded)
