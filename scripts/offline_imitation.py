@@ -19,6 +19,8 @@ the learner, so the data can be collected once and trained on for as long as the
         --out OUT/stochastic-gen_s2_step6000.json
     # the data run's size and its teacher's success
     python scripts/offline_imitation.py --data DATA --summary
+    # several data runs of the same settings (e.g. collected side by side with other --seed), fitted as one
+    python scripts/offline_imitation.py --data DATA DATA_SEED8 --init-weights occnet-takeover --out OUT2
     # how far each network's mean action is from the teacher's, on a data run none was fitted on
     # (step 1 with another --seed and fewer --iterations)
     python scripts/offline_imitation.py --data DATA2 --assess occnet-takeover OUT/weights_step6000.pt
@@ -66,12 +68,24 @@ CHECKPOINT_MINUTES = 10.0  # a resume checkpoint at least this often
 # options a resumed fit may change (how long, how often it reports, where the folders lie: the data
 # set is recognised by its size) or that fit nothing
 NOT_SETTINGS = ("steps", "save_every", "log_every", "summary", "assess", "data", "out")
+# training settings that do not change what a data run's labels are: runs that differ only in these
+# (and in their seeds and lengths, which are not training settings) are fitted together
+NOT_LABELS = (
+    "num_envs",
+    "workers",
+    "device",
+    "teacher_inference",
+    "promotion_eval_every",
+    "promotion_eval_tasks",
+    "imitation_buffer_iters",
+)
 
 
 @dataclass
 class Args:
-    data: str
-    """Run folder of the data run: its checkpoint names its settings and its DAgger data set."""
+    data: list[str]
+    """Run folder(s) of the data run(s): each checkpoint names its settings and its DAgger data set.
+    Several runs (of the same settings but for their seeds and lengths) are fitted as one data set."""
     out: str = ""
     """Run folder of this fit: metrics.jsonl, weights_step<N>.pt, weights.pt, checkpoint.pt
     (needed unless --assess or --summary)."""
@@ -111,6 +125,9 @@ def parse_args(argv: list[str] | None = None) -> Args:
         if f.name == "assess":
             parser.add_argument("--assess", nargs="+", default=[], metavar="WEIGHTS", help=docs[f.name])
             continue
+        if f.name == "data":
+            parser.add_argument("--data", nargs="+", required=True, metavar="DATA_RUN", help=docs[f.name])
+            continue
         kind = {"int": int, "float": float}.get(f.type, str)
         parser.add_argument(
             "--" + f.name.replace("_", "-"), type=kind, required=required, default=None if required else f.default, help=docs[f.name]
@@ -123,6 +140,27 @@ def parse_args(argv: list[str] | None = None) -> Args:
     if not 0.0 < args.validation_fraction < 1.0:
         parser.error(f"--validation-fraction must lie in (0, 1), got {args.validation_fraction}")
     return args
+
+
+def labelled_sequences_of_runs(data_runs: list[Path]) -> tuple[TrainConfig, TensorDictBase, list[int]]:
+    """:func:`labelled_sequences` of several data runs, concatenated in the order given, and each
+    run's count of sequences; their settings must agree except in :data:`NOT_LABELS` (the first
+    run's are returned)."""
+    config, data = labelled_sequences(data_runs[0])
+    parts = [data]
+    first = config.to_dict()
+    for run in data_runs[1:]:
+        other, more = labelled_sequences(run)
+        differ = sorted(k for k, v in other.to_dict().items() if k not in NOT_LABELS and first.get(k) != v)
+        if differ:
+            raise ValueError(
+                f"{run} was collected with other settings than {data_runs[0]} ({', '.join(f'{k}: {other.to_dict()[k]!r} against {first.get(k)!r}' for k in differ)}); "
+                f"only {', '.join(NOT_LABELS)}, seeds and lengths may differ between data runs fitted together"
+            )
+        if more.shape[1:] != data.shape[1:]:
+            raise ValueError(f"{run}'s sequences are {tuple(more.shape[1:])} long, {data_runs[0]}'s {tuple(data.shape[1:])}")
+        parts.append(more)
+    return config, parts[0] if len(parts) == 1 else torch.cat(parts), [p.shape[0] for p in parts]
 
 
 def labelled_sequences(data_run: Path) -> tuple[TrainConfig, TensorDictBase]:
@@ -275,8 +313,14 @@ def main(argv: list[str] | None = None) -> None:
         average_weights(argv[1], argv[2:])
         return
     args = parse_args(argv)
-    config, data = labelled_sequences(Path(args.data))
-    print(data_summary(Path(args.data), data))
+    runs = [Path(d) for d in args.data]
+    config, data, counts = labelled_sequences_of_runs(runs)
+    start = 0
+    for run, count in zip(runs, counts):  # each run's line (its sequences come in the order of the runs)
+        print(data_summary(run, data[start : start + count]))
+        start += count
+    if len(runs) > 1:
+        print(f"together: {data.shape[0]} labelled sequences, {int((data.get('expert_weight') > 0).sum())} labelled frames")
     if args.summary:
         return
     overrides = {"minibatch_envs": args.minibatch or config.minibatch_envs, "lr": args.lr or config.lr or 3e-4}
@@ -313,7 +357,7 @@ def main(argv: list[str] | None = None) -> None:
         generator.set_state(obj["state"]["generator"])
         losses[:] = obj["state"]["losses"]  # the training losses since the last log line
         print(f"resumed {out / CHECKPOINT} at step {step}")
-    meta = {"note": f"scripts/offline_imitation.py from {network_name(args.init_weights)} on {args.data}", "settings": settings}
+    meta = {"note": f"scripts/offline_imitation.py from {network_name(args.init_weights)} on {', '.join(args.data)}", "settings": settings}
 
     def checkpoint() -> None:
         save_checkpoint(

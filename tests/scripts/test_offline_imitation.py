@@ -14,10 +14,10 @@ def _run(*args: str, check: bool = True) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, *args], capture_output=True, text=True, check=check, cwd=ROOT)
 
 
-def _data_run(run: Path, buffer_iters: int) -> None:
+def _data_run(run: Path, buffer_iters: int, *extra: str) -> None:
     _run(
         "-m", "occrl.cli", "train", "--preset", "tiny", "--imitation-iters", "3", "--iterations", "2", "--lr", "0",
-        "--imitation-buffer-iters", str(buffer_iters), "--no-progress", "--run-dir", str(run),
+        "--imitation-buffer-iters", str(buffer_iters), "--no-progress", "--run-dir", str(run), *extra,
     )  # fmt: skip
 
 
@@ -72,3 +72,24 @@ def test_a_data_run_that_dropped_iterations_is_refused(tmp_path):
     _data_run(data, buffer_iters=1)
     bad = _run("scripts/offline_imitation.py", "--data", str(data), "--out", str(tmp_path / "o"), check=False)
     assert bad.returncode != 0 and "holds 1 of the run's 2 iterations" in bad.stderr
+
+
+def test_data_runs_of_the_same_settings_are_fitted_together_and_others_refused(tmp_path):
+    first, second, other = tmp_path / "first", tmp_path / "second", tmp_path / "other"
+    _data_run(first, 10)
+    _data_run(second, 10, "--seed", "8", "--iterations", "1")
+    out = _run("scripts/offline_imitation.py", "--data", str(first), str(second), "--summary").stdout
+    lines = out.splitlines()
+    assert lines[0].startswith(f"{first}: 2 iterations") and "8 labelled sequences" in lines[0]
+    assert lines[1].startswith(f"{second}: 1 iterations") and "4 labelled sequences" in lines[1]
+    assert lines[2] == "together: 12 labelled sequences, 96 labelled frames"
+    fitted = _run(
+        "scripts/offline_imitation.py", "--data", str(first), str(second), "--init-weights", str(first / "weights.pt"),
+        "--steps", "2", "--save-every", "2", "--log-every", "2", "--out", str(tmp_path / "fit"),
+    ).stdout  # fmt: skip
+    assert "11 sequences to fit, 1 held out" in fitted
+    note = torch.load(tmp_path / "fit" / "weights.pt", weights_only=False)["meta"]["note"]
+    assert f"on {first}, {second}" in note
+    _data_run(other, 10, "--heatmap-coeff", "0", "--iterations", "1")
+    bad = _run("scripts/offline_imitation.py", "--data", str(first), str(other), "--summary", check=False)
+    assert bad.returncode != 0 and "collected with other settings" in bad.stderr and "heatmap_coeff" in bad.stderr
