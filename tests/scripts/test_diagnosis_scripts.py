@@ -380,3 +380,33 @@ def test_episode_film_films_the_evaluations_episode(tmp_path):
         cwd=ROOT,
     )
     assert bad.returncode != 0 and "--out must end in .png" in bad.stderr
+
+
+def test_network_ablation_puts_back_only_the_named_head(tmp_path):
+    import torch
+
+    from occrl.modules import make_occnet
+    from occrl.modules.weights import load_weights, save_weights
+
+    trained = make_occnet("paper")
+    with torch.no_grad():  # a "trained" network: every weight moved away from its initialisation
+        for p in trained.parameters():
+            p.add_(0.5)
+    save_weights(tmp_path / "trained.pt", trained)
+    heads = {"policy": "actor", "value": "critic", "heatmap": "heatmap_head"}
+    for part, module in heads.items():
+        out = tmp_path / f"{part}.pt"
+        assert "wrote" in _run("scripts/network_ablation.py", "--weights", str(tmp_path / "trained.pt"), "--part", part, "--out", str(out))
+        net = load_weights(out)
+        torch.manual_seed(0)
+        fresh = make_occnet("paper")
+        for name, other in heads.items():
+            mine, theirs = getattr(net, other).state_dict(), getattr(trained if name != part else fresh, other).state_dict()
+            assert all(torch.equal(mine[k], theirs[k]) for k in mine), (part, name)
+        assert all(torch.equal(a, b) for a, b in zip(net.lstm.parameters(), trained.lstm.parameters()))
+    save_weights(tmp_path / "noheatmap.pt", make_occnet("paper", heatmap=False))
+    bad = subprocess.run(
+        [sys.executable, "scripts/network_ablation.py", "--weights", str(tmp_path / "noheatmap.pt"), "--part", "heatmap", "--out", str(tmp_path / "x.pt")],
+        capture_output=True, text=True, cwd=ROOT,
+    )  # fmt: skip
+    assert bad.returncode != 0 and "no heat-map head" in bad.stderr and not (tmp_path / "x.pt").exists()
