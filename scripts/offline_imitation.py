@@ -151,10 +151,12 @@ def labelled_sequences_of_runs(data_runs: list[Path]) -> tuple[TrainConfig, Tens
     first = config.to_dict()
     for run in data_runs[1:]:
         other, more = labelled_sequences(run)
-        differ = sorted(k for k, v in other.to_dict().items() if k not in NOT_LABELS and first.get(k) != v)
+        theirs = other.to_dict()
+        differ = sorted(k for k, v in theirs.items() if k not in NOT_LABELS and first.get(k) != v)
         if differ:
+            settings = ", ".join(f"{k}: {theirs[k]!r} against {first.get(k)!r}" for k in differ)
             raise ValueError(
-                f"{run} was collected with other settings than {data_runs[0]} ({', '.join(f'{k}: {other.to_dict()[k]!r} against {first.get(k)!r}' for k in differ)}); "
+                f"{run} was collected with other settings than {data_runs[0]} ({settings}); "
                 f"only {', '.join(NOT_LABELS)}, seeds and lengths may differ between data runs fitted together"
             )
         if more.shape[1:] != data.shape[1:]:

@@ -394,7 +394,7 @@ def test_network_ablation_puts_back_only_the_named_head(tmp_path):
             p.add_(0.5)
     save_weights(tmp_path / "trained.pt", trained)
     heads = {"policy": "actor", "value": "critic", "heatmap": "heatmap_head"}
-    for part, module in heads.items():
+    for part in heads:
         out = tmp_path / f"{part}.pt"
         assert "wrote" in _run("scripts/network_ablation.py", "--weights", str(tmp_path / "trained.pt"), "--part", part, "--out", str(out))
         net = load_weights(out)
