@@ -64,7 +64,8 @@ class ShelfEnv(EnvBase):
     Starting State:
         A scene sampled for the curriculum ``stage`` (1: 1-4 objects, 2: 5-10, 3: 7-10 with the
         target in the back half) or the next of the given ``scenes``; the gripper starts outside
-        the shelf (y = -0.1 m) facing in.
+        the shelf (y = -0.1 m) facing in. With a ``scene_pool``, a share of the episodes start
+        from the pool's states instead (the gripper wherever they have it, open and empty).
 
     Episode Termination:
         Terminated when the target is held and its centroid is 5 cm past the front edge
@@ -84,6 +85,12 @@ class ShelfEnv(EnvBase):
         max_steps: truncation horizon.
         physics: integration settings of the pymunk worlds (``occrl.envs.LEGACY_PHYSICS``
             reproduces occrl 0.1.0).
+        scene_pool: start states to draw from (beyond the paper; e.g. the states a search
+            hands over to the retrieval, :mod:`occrl.training.handover_scenes`): at each reset a
+            world starts from a scene of the pool with probability ``scene_pool_share``, drawn by
+            its own seeded generator (so a seed fixes the episode), else from a sampled scene.
+            Not with ``scenes``.
+        scene_pool_share: that probability, in (0, 1].
 
     Examples:
         >>> from occrl.envs import ShelfEnv
@@ -106,6 +113,8 @@ class ShelfEnv(EnvBase):
         max_steps: int = C.MAX_EPISODE_STEPS,
         device: str | torch.device = "cpu",
         physics: PhysicsSettings = DEFAULT_PHYSICS,
+        scene_pool: Sequence[Scene] | None = None,
+        scene_pool_share: float = 1.0,
     ) -> None:
         if isinstance(batch_size, int):
             batch_size = (batch_size,)
@@ -133,11 +142,21 @@ class ShelfEnv(EnvBase):
             scenes = list(scenes)
             if not scenes or not all(isinstance(s, Scene) for s in scenes):
                 raise ValueError("scenes must be a non-empty sequence of occrl.envs.Scene")
+        if scene_pool is not None:
+            scene_pool = list(scene_pool)
+            if not scene_pool or not all(isinstance(s, Scene) for s in scene_pool):
+                raise ValueError("scene_pool must be a non-empty sequence of occrl.envs.Scene")
+            if scenes is not None:
+                raise ValueError("give scenes (reset to each in turn) or scene_pool (drawn at random), not both")
+        if isinstance(scene_pool_share, bool) or not isinstance(scene_pool_share, (int, float)) or not 0.0 < scene_pool_share <= 1.0:
+            raise ValueError(f"scene_pool_share must be a probability in (0, 1], got {scene_pool_share!r}")
         super().__init__(device=device, batch_size=batch_size)
         self.num_worlds = int(batch_size[0])
         self.stage = stage
         self.noise = float(noise)
         self.scenes = scenes
+        self.scene_pool = scene_pool
+        self.scene_pool_share = float(scene_pool_share)
         self.num_objects = num_objects
         self.max_steps = int(max_steps)
         self.physics = physics
@@ -212,7 +231,10 @@ class ShelfEnv(EnvBase):
             scene = self.scenes[self._scene_cursor % len(self.scenes)]
             self._scene_cursor += 1
             return scene
-        return Scene.sample(self.stage, seed=self._rngs[i], num_objects=self.num_objects)
+        rng = self._rngs[i]
+        if self.scene_pool is not None and (self.scene_pool_share >= 1.0 or rng.random() < self.scene_pool_share):
+            return self.scene_pool[int(rng.integers(len(self.scene_pool)))]
+        return Scene.sample(self.stage, seed=rng, num_objects=self.num_objects)
 
     # ------------------------------------------------------------------ reset / step
     def _reset(self, tensordict: TensorDictBase | None = None, **kwargs) -> TensorDictBase:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, fields, replace
+from pathlib import Path
 
 import torch
 
@@ -228,6 +229,13 @@ class TrainConfig:
     "multi" or "ray", fewer than workers)."""
     noise: float = 0.0
     """Physics noise of the training tasks."""
+    start_scenes: str = ""
+    """A scenes file (occrl.envs.scene_files, e.g. from scripts/start_scene_pool.py: tasks whose
+    target is hidden at the start, or the states a search hands over) from which a share
+    start_scenes_share of the training episodes at its stage (the file's meta "stage") start
+    instead of a sampled task (beyond the paper; "": none)."""
+    start_scenes_share: float = 0.5
+    """The probability that a training episode at the start scenes' stage starts from one of them."""
 
     @property
     def frames_per_batch(self) -> int:
@@ -307,6 +315,10 @@ class TrainConfig:
                 "teacher_replan_inside applies to the hierarchical teacher or taker-over (imitation_teacher or "
                 f"takeover_retriever 'hierarchical'), not to teacher {self.imitation_teacher!r} / taker-over {self.takeover_retriever!r}"
             )
+        if not 0.0 < self.start_scenes_share <= 1.0:
+            raise ValueError(f"start_scenes_share must be a probability in (0, 1], got {self.start_scenes_share!r}")
+        if self.start_scenes and not Path(self.start_scenes).is_file():
+            raise ValueError(f"start_scenes names no file: {self.start_scenes!r} (a scenes file, e.g. from scripts/start_scene_pool.py)")
         if self.promotion == "hybrid" and not self.heatmap:
             raise ValueError("promotion='hybrid' needs the heat-map head (the hybrid planner uses it); use 'learner'")
 

@@ -118,6 +118,30 @@ def test_scenes_are_used_in_turn():
         assert env.worlds[0].scene is scenes[k % 3]
 
 
+def test_scene_pool_draws_by_each_worlds_seed():
+    pool = [Scene.sample(2, seed=s) for s in range(5)]
+
+    def starts(seed, share, resets=6):
+        env = ShelfEnv(batch_size=3, stage=1, seed=seed, scene_pool=pool, scene_pool_share=share)
+        out = []
+        for _ in range(resets):
+            env.reset()
+            out.append([next((k for k, p in enumerate(pool) if w.scene is p), None) for w in env.worlds])
+        return out
+
+    every = starts(0, 1.0)
+    assert all(k is not None for row in every for k in row)  # share 1: always from the pool
+    assert len({k for row in every for k in row}) > 1  # drawn, not one scene
+    assert starts(0, 1.0) == every  # a seed fixes the draws
+    mixed = [k for row in starts(1, 0.5, resets=12) for k in row]
+    from_pool = sum(k is not None for k in mixed)
+    assert 0 < from_pool < len(mixed)  # share 0.5: some from the pool, some sampled stage-1 scenes
+    # the scenes not from the pool are the stage's own sampled tasks
+    env = ShelfEnv(batch_size=1, stage=1, seed=3, scene_pool=pool, scene_pool_share=0.01)
+    env.reset()
+    assert all(env.worlds[0].scene is not p for p in pool) and 1 <= len(env.worlds[0].scene) <= 4
+
+
 def test_undetected_slots_reveal_nothing():
     s = scene([(0.0, 0.1, 0.0, False), (0.0, 0.28, 0.0, True)])  # the target is hidden behind the box
     td = ShelfEnv(batch_size=1, scenes=[s]).reset()
@@ -135,6 +159,10 @@ def test_undetected_slots_reveal_nothing():
         (dict(noise=-0.1), "noise must be in"),
         (dict(batch_size=0), "batch_size"),
         (dict(scenes=["not a scene"]), "scenes must be"),
+        (dict(scene_pool=[]), "scene_pool must be a non-empty"),
+        (dict(scene_pool=[Scene.sample(1, seed=0)], scene_pool_share=0.0), "scene_pool_share must be a probability"),
+        (dict(scene_pool=[Scene.sample(1, seed=0)], scene_pool_share=1.5), "scene_pool_share must be a probability"),
+        (dict(scenes=[Scene.sample(1, seed=0)], scene_pool=[Scene.sample(1, seed=1)]), "not both"),
     ],
 )
 def test_bad_env_arguments(kwargs, message):
