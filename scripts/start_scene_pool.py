@@ -72,6 +72,8 @@ def main() -> None:
                 found = [s for s in found if s.meta["step"] > 0]
             scenes += found
             for k, v in c.items():
+                if k == "first_sight":
+                    continue
                 if isinstance(v, dict):
                     for reason, n in v.items():
                         counts.setdefault(k, {})[reason] = counts.get(k, {}).get(reason, 0) + n

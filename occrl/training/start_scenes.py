@@ -121,7 +121,9 @@ def collect_handover_scenes(
     :func:`occrl.envs.episodes.run_episodes` seeds them) and record each world at its first
     observation reporting the target (:func:`scene_of_world`; the scene's ``meta`` names the
     task seed and the step). Returns the scenes and counts: ``tasks``, ``handed_over`` (the
-    target reported before the episode ended), ``kept``, and per reason the hand-overs dropped.
+    target reported before the episode ended), ``kept``, per reason the hand-overs dropped
+    (``dropped``), and per task seed the step of the first report (``first_sight``; None where
+    the episode ended without one).
 
     Args:
         policy: a decision maker writing ``"action"`` (e.g. ``NetPolicy(net, stochastic=True)``).
@@ -140,7 +142,7 @@ def collect_handover_scenes(
     if isinstance(batch, bool) or not isinstance(batch, int) or batch < 1:
         raise ValueError(f"batch must be an int >= 1, got {batch!r}")
     scenes: list[Scene] = []
-    counts: dict = {"tasks": len(seeds), "handed_over": 0, "kept": 0, "dropped": {}}
+    counts: dict = {"tasks": len(seeds), "handed_over": 0, "kept": 0, "dropped": {}, "first_sight": dict.fromkeys(seeds)}
     chunks = [seeds[i : i + batch] for i in range(0, len(seeds), batch)]
     for chunk in tqdm(chunks, desc="hand-over scenes", unit="batch", disable=not progress):
         env = seeded_task_env(
@@ -156,6 +158,7 @@ def collect_handover_scenes(
                 if recreate(td[b]).target_detected:
                     pending[b] = False
                     counts["handed_over"] += 1
+                    counts["first_sight"][chunk[b]] = step
                     try:
                         scenes.append(scene_of_world(worlds[b], meta={"task_seed": chunk[b], "stage": stage, "step": step}))
                         counts["kept"] += 1
@@ -168,5 +171,5 @@ def collect_handover_scenes(
             pending &= ~td.get(("next", "done")).reshape(-1).numpy()
             td = step_mdp(td)
         env.close()
-    logger.info("hand-over scenes: %s", counts)
+    logger.info("hand-over scenes: %s", {k: v for k, v in counts.items() if k != "first_sight"})
     return scenes, counts

@@ -410,3 +410,29 @@ def test_network_ablation_puts_back_only_the_named_head(tmp_path):
         capture_output=True, text=True, cwd=ROOT,
     )  # fmt: skip
     assert bad.returncode != 0 and "no heat-map head" in bad.stderr and not (tmp_path / "x.pt").exists()
+
+
+def test_search_split_groups_the_evaluations_episodes_by_the_first_sight(tmp_path):
+    results = tmp_path / "own.json"
+    _run("-m", "occrl.cli", "eval", "--method", "stochastic-gen", "--stage", "2", "--tasks", "12", "--workers", "1", "--out", str(results))
+    out = _run("scripts/search_split.py", "--weights", "occnet", "--results", str(results), "--out", str(tmp_path / "split.json"))
+    split = json.loads((tmp_path / "split.json").read_text())
+    groups = split["groups"]
+    assert sum(g["tasks"] for g in groups.values()) == 12
+    assert sum(g["solved"] for g in groups.values()) == json.loads(results.read_text())["successes"]
+    assert groups["never"]["solved"] == 0 and "warning" not in out
+    assert groups["at the start"]["tasks"] > 0 and groups["never"]["tasks"] + groups["after a search"]["tasks"] > 0
+    bad = subprocess.run(
+        [
+            sys.executable,
+            "scripts/search_split.py",
+            "--weights",
+            "occnet",
+            "--results",
+            str(_result(tmp_path / "h.json", "hybrid-4x4", 2, [True])),
+        ],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+    )
+    assert bad.returncode == 2 and "needs a replicate-0 stochastic-gen result" in bad.stderr

@@ -33,6 +33,9 @@ def test_a_handover_scene_starts_where_the_search_saw_the_target():
     assert counts["tasks"] == 24 and counts["kept"] == len(scenes)
     assert counts["handed_over"] == counts["kept"] + sum(counts["dropped"].values())
     assert scenes and {s.meta["task_seed"] for s in scenes} <= set(seeds)
+    sight = counts["first_sight"]
+    assert set(sight) == set(seeds) and sum(v is not None for v in sight.values()) == counts["handed_over"]
+    assert all(sight[s.meta["task_seed"]] == s.meta["step"] for s in scenes)
     for s in scenes:
         # a world built from the scene shows the target in its first observation, as the search did
         assert _target_seen_at_start(s)
