@@ -420,8 +420,14 @@ def test_search_split_groups_the_evaluations_episodes_by_the_first_sight(tmp_pat
     groups = split["groups"]
     assert sum(g["tasks"] for g in groups.values()) == 12
     assert sum(g["solved"] for g in groups.values()) == json.loads(results.read_text())["successes"]
-    assert groups["never"]["solved"] == 0 and "warning" not in out
-    assert groups["at the start"]["tasks"] > 0 and groups["never"]["tasks"] + groups["after a search"]["tasks"] > 0
+    assert groups["never seen"]["solved"] == 0 and "warning" not in out
+    searched = groups["never seen"]["tasks"] + groups["first seen after a search"]["tasks"]
+    assert groups["first seen at the start"]["tasks"] > 0 and searched > 0
+    # split by the task alone: the tasks whose target is seen at the start are the same for any method
+    _run("scripts/search_split.py", "--start-only", "--results", str(results), str(results), "--out", str(tmp_path / "start.json"))
+    start = json.loads((tmp_path / "start.json").read_text())[str(results)]
+    assert start["seen at the start"] == groups["first seen at the start"]
+    assert start["hidden at the start"]["tasks"] == searched
     other = json.loads(results.read_text())
     other["replicate"] = 1
     (tmp_path / "r1.json").write_text(json.dumps(other))
