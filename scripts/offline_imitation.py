@@ -78,6 +78,10 @@ NOT_LABELS = (
     "promotion_eval_every",
     "promotion_eval_tasks",
     "imitation_buffer_iters",
+    # which tasks the episodes start from (a pool of start scenes, e.g. target-hidden tasks): the
+    # labels are the same teacher's decisions, on another mix of tasks
+    "start_scenes",
+    "start_scenes_share",
 )
 
 

@@ -90,6 +90,15 @@ def test_data_runs_of_the_same_settings_are_fitted_together_and_others_refused(t
     assert "11 sequences to fit, 1 held out" in fitted
     note = torch.load(tmp_path / "fit" / "weights.pt", weights_only=False)["meta"]["note"]
     assert f"on {first}, {second}" in note
+    # a run on another mix of tasks (a pool of start scenes) holds the same teacher's labels: fitted together
+    from occrl.envs import Scene
+    from occrl.envs.scene_files import save_scenes
+
+    save_scenes(tmp_path / "pool.json", [Scene.sample(1, seed=s) for s in range(3)], meta={"stage": 1})
+    pooled = tmp_path / "pooled"
+    _data_run(pooled, 10, "--start-scenes", str(tmp_path / "pool.json"), "--start-scenes-share", "1", "--iterations", "1")
+    both = _run("scripts/offline_imitation.py", "--data", str(first), str(pooled), "--summary").stdout
+    assert "together: 12 labelled sequences" in both
     _data_run(other, 10, "--heatmap-coeff", "0", "--iterations", "1")
     bad = _run("scripts/offline_imitation.py", "--data", str(first), str(other), "--summary", check=False)
     assert bad.returncode != 0 and "collected with other settings" in bad.stderr and "heatmap_coeff" in bad.stderr
