@@ -47,7 +47,7 @@ def hidden_target_scenes(stage: int, seeds: Sequence[int], batch: int = 64, prog
         >>> from occrl.envs.episodes import task_scenes
         >>> from occrl.training.start_scenes import hidden_target_scenes
         >>> hidden = hidden_target_scenes(2, range(20))
-        >>> 0 < len(hidden) < 20, all(s in task_scenes(2, range(20)) for s in hidden)
+        >>> 0 < len(hidden) < 20, {s.seed for s in hidden} < {s.seed for s in task_scenes(2, range(20))}
         (True, True)
     """
     seeds = [int(s) for s in seeds]
@@ -73,7 +73,7 @@ def scene_of_world(world, meta: dict | None = None) -> Scene:
 
     Examples:
         >>> from occrl.envs import Scene, ShelfWorld
-        >>> from occrl.training.handover_scenes import scene_of_world
+        >>> from occrl.training.start_scenes import scene_of_world
         >>> scene = Scene.sample(stage=2, seed=3)
         >>> world = ShelfWorld(scene)
         >>> _ = world.step([1.0, 0.0, 0.0, -1.0])
