@@ -233,7 +233,9 @@ class TrainConfig:
     """A scenes file (occrl.envs.scene_files, e.g. from scripts/start_scene_pool.py: tasks whose
     target is hidden at the start, or the states a search hands over) from which a share
     start_scenes_share of the training episodes at its stage (the file's meta "stage") start
-    instead of a sampled task (beyond the paper; "": none)."""
+    instead of a sampled task (beyond the paper; "": none). The run names the file, not its
+    contents: keep it unchanged while the run goes on (a resumed run reads it again), and on
+    every node of a "ray" collector."""
     start_scenes_share: float = 0.5
     """The probability that a training episode at the start scenes' stage starts from one of them."""
 
