@@ -95,7 +95,8 @@ def main() -> None:
         groups: dict[str, list[int]] = {"first seen at the start": [], "first seen after a search": [], "never seen": []}
         for seed, step in counts["first_sight"].items():
             groups["never seen" if step is None else "first seen at the start" if step == 0 else "first seen after a search"].append(seed)
-        label = f"{name} on {network_name(args.weights) if args.weights else 'its default network'}, stage {stage}, {len(episodes)} tasks ({path})"
+        network = network_name(args.weights) if args.weights else method.network
+        label = f"{name}{f' on {network}' if network else ''}, stage {stage}, {len(episodes)} tasks ({path})"
         rows = print_groups(label, episodes, groups)
         if any(episodes[s]["success"] for s in groups["never seen"]):  # a solved task shows its target on the way
             print("warning: a task never seen here was solved in the evaluation: the episodes are not the evaluation's (another network?)")
