@@ -57,8 +57,10 @@ def hidden_target_scenes(stage: int, seeds: Sequence[int], batch: int = 64, prog
     chunks = [seeds[i : i + batch] for i in range(0, len(seeds), batch)]
     for chunk in tqdm(chunks, desc="target-hidden scenes", unit="batch", disable=not progress):
         scenes = task_scenes(stage, chunk)
-        td = make_env(batch_size=len(chunk), scenes=scenes, seed=chunk, heatmap_target=False).reset()
+        env = make_env(batch_size=len(chunk), scenes=scenes, seed=chunk, heatmap_target=False)
+        td = env.reset()
         hidden += [scene for b, scene in enumerate(scenes) if not recreate(td[b]).target_detected]
+        env.close()
     return hidden
 
 
