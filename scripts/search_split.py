@@ -100,8 +100,7 @@ def main() -> None:
         rows = print_groups(label, episodes, groups)
         if any(episodes[s]["success"] for s in groups["never seen"]):  # a solved task shows its target on the way
             print("warning: a task never seen here was solved in the evaluation: the episodes are not the evaluation's (another network?)")
-        weights = network_name(args.weights) if args.weights else None
-        out = {"method": name, "weights": weights, "results": path, "stage": stage, "groups": rows, "first_sight": counts["first_sight"]}
+        out = {"method": name, "weights": network, "results": path, "stage": stage, "groups": rows, "first_sight": counts["first_sight"]}
     if args.out:
         with open(args.out, "w") as f:
             json.dump(out, f, indent=1)

@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import os
 import time
+from collections import Counter
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
@@ -52,7 +53,7 @@ def main() -> None:
         from occrl.pretrained import network_name, weights_file
 
         method = make_method("stochastic-gen", weights_file(args.weights))
-    scenes, tried, counts = [], 0, {}
+    scenes, tried, counts, dropped = [], 0, {}, Counter()
     start = time.time()
     while len(scenes) < args.count:
         seeds = range(args.seed + tried, args.seed + tried + BLOCK)
@@ -71,14 +72,9 @@ def main() -> None:
             if args.later_only:
                 found = [s for s in found if s.meta["step"] > 0]
             scenes += found
-            for k, v in c.items():
-                if k == "first_sight":
-                    continue
-                if isinstance(v, dict):
-                    for reason, n in v.items():
-                        counts.setdefault(k, {})[reason] = counts.get(k, {}).get(reason, 0) + n
-                else:
-                    counts[k] = counts.get(k, 0) + v
+            for k in ("tasks", "handed_over", "kept"):
+                counts[k] = counts.get(k, 0) + c[k]
+            dropped.update(c["dropped"])
         print(f"{tried} tasks tried, {len(scenes)} scenes ({time.time() - start:.0f} s)", flush=True)
     scenes = scenes[: args.count]
     last_seed = scenes[-1].seed if method is None else scenes[-1].meta["task_seed"]
@@ -91,7 +87,13 @@ def main() -> None:
         "scenes": len(scenes),
     }
     if method is not None:
-        meta.update({"weights": network_name(args.weights) if args.weights else "occnet", "later_only": args.later_only, "counts": counts})
+        meta.update(
+            {
+                "weights": network_name(args.weights) if args.weights else "occnet",
+                "later_only": args.later_only,
+                "counts": {**counts, "dropped": dict(dropped)},
+            }
+        )
     save_scenes(args.out, scenes, meta=meta)
     print(f"wrote {len(scenes)} scenes to {args.out}: {meta}")
 
