@@ -435,3 +435,22 @@ def test_search_split_groups_the_evaluations_episodes_by_the_first_sight(tmp_pat
         [sys.executable, "scripts/search_split.py", "--results", str(tmp_path / "r1.json")], capture_output=True, text=True, cwd=ROOT
     )
     assert bad.returncode == 2 and "needs a replicate-0 result" in bad.stderr
+
+
+def test_start_scene_pool_writes_target_hidden_tasks_the_trainer_can_read(tmp_path):
+    from occrl.envs.scene_files import load_scenes
+    from occrl.training.start_scenes import hidden_target_scenes
+
+    out = tmp_path / "pool.json"
+    _run("scripts/start_scene_pool.py", "--kind", "target-hidden", "--stage", "2", "--count", "3", "--seed", "7", "--out", str(out))
+    scenes, meta = load_scenes(out)
+    assert meta["stage"] == 2 and meta["kind"] == "target-hidden" and meta["scenes"] == len(scenes) == 3
+    expected = [s.seed for s in hidden_target_scenes(2, range(7, meta["last_seed"] + 1))][:3]
+    assert [s.seed for s in scenes] == expected
+    bad = subprocess.run(
+        [sys.executable, "scripts/start_scene_pool.py", "--kind", "target-hidden", "--count", "3", "--later-only", "--out", str(out)],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+    )
+    assert bad.returncode == 2 and "apply to --kind handover" in bad.stderr
