@@ -2,6 +2,7 @@
 
     python scripts/handover.py --stage 2 --tasks 200 [--weights W.pt] [--to scripted|clearing|clearing-observed|hierarchical] [--out F.json]
     python scripts/handover.py --from stochastic-gen --to scripted ...   # the network's own policy searches
+    python scripts/handover.py --from hierarchical --to hybrid-4x4|stochastic-gen|clearing-observed [--weights W.pt] ...
 
 The hybrid 4x4 planner acts from the start of each held-out task (the README's task seeds; the
 planner reseeded per task as `occrl eval` does, so up to the hand-over the episodes are those of
@@ -18,7 +19,12 @@ discarded after the hand-over). Prints success of the combination against the hy
 own on the same tasks (from ``--baseline F.json`` of `occrl eval`, if given), and how many tasks
 were handed over at all. ``--from stochastic-gen``: the network's own sampled policy searches
 instead of the planner (its episodes up to the hand-over those of `occrl eval --method
-stochastic-gen`). A diagnosis for issue 16 (docs/decisions.md); analysis only: the
+stochastic-gen`). ``--from hierarchical --to hybrid-4x4`` (or ``stochastic-gen``, ``clearing-observed``) turns it
+round: the hierarchical planner's Search (sweeps from the nearer end, stopping at the first
+detection; a rearrangement where a sweep finds nothing) until the target is first reported, the
+network's planner (or own policy, or the observed clearing retriever) from then on; it decides at every step from the start
+(``SearchThenRetrieve(retriever_follows=True)``), so its memory holds the whole search,
+and its decisions count from the hand-over. A diagnosis for issue 16 (docs/decisions.md); analysis only: the
 retriever reads what its kind reads (the scripted one privileged state).
 """
 
@@ -36,10 +42,16 @@ from tqdm import tqdm
 
 from occrl.eval.methods import make_method
 from occrl.baselines.handover import SearchThenRetrieve
+from occrl.baselines.hierarchical import HierarchicalPlanner
 from occrl.baselines.observed_clearing import ObservedClearingRetriever
 from occrl.envs.episodes import task_scenes
 from occrl.eval.runner import EVAL_SEED_BASE, paired_with, summarize
 from occrl.pretrained import network_name, weights_file
+
+#: the network's decision makers that can take over from the hierarchical planner's search
+NETWORK_RETRIEVERS = ("hybrid-4x4", "stochastic-gen")
+#: what can take over from the hierarchical planner's search, following the episode from its start
+FOLLOWING_RETRIEVERS = (*NETWORK_RETRIEVERS, "clearing-observed")
 
 
 def main() -> None:
@@ -47,16 +59,30 @@ def main() -> None:
     parser.add_argument("--stage", type=int, default=2)
     parser.add_argument("--tasks", type=int, default=200)
     parser.add_argument("--weights", default=None, help="the planner's network: a weights file or a shipped name (default: occnet)")
-    parser.add_argument("--from", dest="searcher", default="hybrid-4x4", choices=("hybrid-4x4", "stochastic-gen"), help="who searches")
-    parser.add_argument("--to", default="scripted", choices=("scripted", "clearing", "clearing-observed", "hierarchical"))
+    parser.add_argument(
+        "--from", dest="searcher", default="hybrid-4x4", choices=("hybrid-4x4", "stochastic-gen", "hierarchical"), help="who searches"
+    )
+    parser.add_argument(
+        "--to", default="scripted", choices=("scripted", "clearing", "clearing-observed", "hierarchical", *NETWORK_RETRIEVERS)
+    )
     parser.add_argument("--baseline", default=None, help="an `occrl eval --out` file of the searcher alone on the same tasks")
     parser.add_argument("--out", default=None)
     args = parser.parse_args()
     torch.set_num_threads(1)
-    planner = make_method(args.searcher, weights_file(args.weights))
+    if args.searcher == "hierarchical" and args.to not in FOLLOWING_RETRIEVERS:
+        parser.error(f"--from hierarchical hands over to one of {list(FOLLOWING_RETRIEVERS)}; got --to {args.to}")
+    if args.to in NETWORK_RETRIEVERS and args.searcher != "hierarchical":
+        parser.error(f"--to {args.to} takes over from --from hierarchical only")
     label = "hybrid 4x4" if args.searcher == "hybrid-4x4" else args.searcher
-    retriever = ObservedClearingRetriever() if args.to == "clearing-observed" else make_method(args.to).policy
-    policy = SearchThenRetrieve(planner.policy, retriever)
+    if args.searcher == "hierarchical":  # the retriever decides from the start (its memory of the search kept), counts after
+        searcher = HierarchicalPlanner(sweep_from="nearest", stop_when_located=True)
+        planner = make_method(args.to if args.to in NETWORK_RETRIEVERS else "hierarchical", weights_file(args.weights))  # primers
+        retriever = ObservedClearingRetriever() if args.to == "clearing-observed" else planner.policy
+        policy = SearchThenRetrieve(searcher, retriever, retriever_follows=True)
+    else:
+        planner = make_method(args.searcher, weights_file(args.weights))
+        retriever = ObservedClearingRetriever() if args.to == "clearing-observed" else make_method(args.to).policy
+        policy = SearchThenRetrieve(planner.policy, retriever)
     seeds = list(range(EVAL_SEED_BASE, EVAL_SEED_BASE + args.tasks))
     t0 = time.time()
     results, handed = [], []

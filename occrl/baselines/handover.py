@@ -31,6 +31,11 @@ class SearchThenRetrieve(TensorDictModuleBase):
     decides for every world once any is handed over (the others' decisions are discarded);
     evaluations run planners one world per task.
 
+    With ``retriever_follows=True`` the retriever decides at every step from the episode's
+    start, on the same observations and its own recurrent state (a network's LSTM or a hybrid
+    planner then retrieves with the memory of the whole search, as it would acting alone); its
+    actions count from the hand-over on, and its first observation there is not flagged.
+
     Examples:
         >>> from occrl.baselines import ScriptedRetriever
         >>> from occrl.baselines.handover import SearchThenRetrieve
@@ -45,11 +50,13 @@ class SearchThenRetrieve(TensorDictModuleBase):
         (torch.Size([1, 3, 4]), True)
     """
 
-    def __init__(self, searcher: TensorDictModuleBase, retriever: TensorDictModuleBase) -> None:
+    def __init__(self, searcher: TensorDictModuleBase, retriever: TensorDictModuleBase, retriever_follows: bool = False) -> None:
         super().__init__()
         self.searcher, self.retriever = searcher, retriever
+        self.retriever_follows = retriever_follows
         self.in_keys = list(dict.fromkeys(["is_init", *searcher.in_keys, *retriever.in_keys]))
-        self.out_keys = list(dict.fromkeys([*searcher.out_keys, "action"]))
+        follower_keys = retriever.out_keys if retriever_follows else []
+        self.out_keys = list(dict.fromkeys([*searcher.out_keys, *follower_keys, "action"]))
         self.handovers = 0  # hand-overs in the first episode of each world since the last reset
         self._handed = self._retrieving = self._first_episode = self._started = None
 
@@ -85,6 +92,8 @@ class SearchThenRetrieve(TensorDictModuleBase):
             if not self._handed[b] and recreate(flat[b]).target_detected:
                 self._handed[b] = True
                 self.handovers += int(self._first_episode[b])
+        if self.retriever_follows:
+            return self._follow(tensordict, flat, n)
         out = self.searcher(tensordict)
         if self._handed.any():
             obs = tensordict.select(*self.retriever.in_keys).copy()
@@ -93,6 +102,23 @@ class SearchThenRetrieve(TensorDictModuleBase):
             action = out.get("action").reshape(n, -1).clone()
             handed = torch.from_numpy(self._handed)
             action[handed] = retrieved[handed]
+            out.set("action", action.reshape(out.get("action").shape))
+        self._retrieving = self._handed.copy()
+        return out
+
+    def _follow(self, tensordict: TensorDictBase, flat: TensorDictBase, n: int) -> TensorDictBase:
+        """``retriever_follows``: the retriever decides on every step, the searcher only where the
+        search goes on (all worlds unless it can be asked for some: ``act_on_worlds``)."""
+        searching = np.flatnonzero(~self._handed)
+        searched = None
+        if len(searching) and hasattr(self.searcher, "act_on_worlds"):
+            searched = torch.as_tensor(self.searcher.act_on_worlds(flat, searching), dtype=torch.float32)
+        elif len(searching):  # in place: a recurrent searcher's state follows as well
+            searched = self.searcher(tensordict).get("action").reshape(n, -1)[searching].clone()
+        out = self.retriever(tensordict)  # its recurrent state follows every step
+        if searched is not None:
+            action = out.get("action").reshape(n, -1).clone()
+            action[torch.from_numpy(searching)] = searched
             out.set("action", action.reshape(out.get("action").shape))
         self._retrieving = self._handed.copy()
         return out

@@ -276,18 +276,26 @@ class HierarchicalPlanner(TensorDictModuleBase):
     # ------------------------------------------------------------------ forward
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
         flat = tensordict.reshape(-1)
+        actions = self.act_on_worlds(flat, range(flat.shape[0]))
+        action = torch.as_tensor(actions, dtype=torch.float32).reshape(*tensordict.shape, C.ACTION_DIM)
+        tensordict.set("action", action)
+        return tensordict
+
+    def act_on_worlds(self, flat: TensorDictBase, worlds) -> np.ndarray:
+        """The next actions of the worlds ``worlds`` (indices) of a flat batch, shape (len(worlds),
+        4); the other worlds are not asked, their episodes stand still (a decision maker that
+        takes over some worlds, :class:`~occrl.baselines.handover.SearchThenRetrieve`, spares
+        their planning)."""
         n = flat.shape[0]
         if len(self.episodes) != n:
             self.episodes = [_Episode() for _ in range(n)]
         is_init = flat.get("is_init").reshape(n).cpu().numpy() if "is_init" in flat.keys() else np.zeros(n, bool)
         actions = []
-        for b in range(n):
+        for b in worlds:
             if is_init[b]:
                 self.episodes[b] = _Episode()
             actions.append(self.act(self.episodes[b], flat[b]))
-        action = torch.as_tensor(np.stack(actions), dtype=torch.float32).reshape(*tensordict.shape, C.ACTION_DIM)
-        tensordict.set("action", action)
-        return tensordict
+        return np.stack(actions) if actions else np.zeros((0, C.ACTION_DIM))
 
     def act(self, ep: _Episode, obs: TensorDictBase) -> np.ndarray:
         """The next action of one world (observation without batch dims)."""

@@ -14,6 +14,7 @@ import math
 from pathlib import Path
 
 from occrl.baselines.clearing import ClearingRetriever
+from occrl.baselines.handover import SearchThenRetrieve
 from occrl.baselines.observed_clearing import ObservedClearingRetriever
 from occrl.baselines.scripted import ScriptedRetriever
 from occrl.modules.occnet import OccNet
@@ -77,6 +78,11 @@ def make_expert(config: TrainConfig, acting_net: OccNet, seed: int, teacher_net:
         return expert
     if config.imitation_teacher == "self":
         return None
+    if config.imitation_teacher == "clearing-observed" and config.teacher_search == "hierarchical":
+        from occrl.baselines.hierarchical import HierarchicalPlanner  # needs OMPL
+
+        searcher = HierarchicalPlanner(seed=seed, **HIERARCHICAL_TEACHER)
+        return SearchThenRetrieve(searcher, ObservedClearingRetriever(), retriever_follows=True)
     return make_retriever(config.imitation_teacher, seed, config.teacher_replan_inside)
 
 
@@ -87,7 +93,8 @@ def collection_policy(config: TrainConfig, acting_policy, expert):
         kinds = None if config.teacher_label_kinds == "all" else tuple(config.teacher_label_kinds.split(","))
         return OnlineTeacherPolicy(acting_policy, expert, 0.0, label_kinds=kinds, action_noise=config.teacher_action_noise)
     if config.imitation_iters > 0 and config.imitation_teacher == "clearing-observed":
-        return OnlineTeacherPolicy(acting_policy, expert, 0.0, from_first_sight=True, action_noise=config.teacher_action_noise)
+        searches = config.teacher_search != "learner"  # else the learner searches, the teacher acts from the first sight
+        return OnlineTeacherPolicy(acting_policy, expert, 0.0, from_first_sight=not searches, action_noise=config.teacher_action_noise)
     if config.imitation_iters > 0 and config.imitation_teacher != "self":
         return ExpertMixPolicy(acting_policy, expert, 0.0)
     return acting_policy

@@ -38,3 +38,53 @@ def test_hand_over_at_the_first_detection():
     assert policy.handovers == int(kinds[-1].sum())
     policy.reset()
     assert policy.handed is None and policy.handovers == 0
+
+
+def test_a_following_retriever_decides_on_the_whole_history():
+    torch.manual_seed(0)
+    net = make_occnet("paper").eval()
+    env = make_env(batch_size=2, stage=2, seed=1, heatmap_target=False).append_transform(net.make_primer())
+    policy = SearchThenRetrieve(ScriptedRetriever(), HybridPlanner(net, m=2, h=2, seed=1), retriever_follows=True)
+    alone, scripted = HybridPlanner(net, m=2, h=2, seed=1), ScriptedRetriever()
+    state_keys = [k for k in alone.out_keys if k != "action"]
+    assert state_keys and set(state_keys) <= set(policy.out_keys)  # the retriever's recurrent state is written
+    td = env.reset()
+    seen = np.zeros(2, bool)
+    kinds = []
+    for _ in range(8):
+        seen |= np.array([recreate(td[b]).target_detected for b in range(2)])
+        own = alone(td.clone())  # the planner alone on the same history, from the episode's start
+        searched = scripted(td.select(*scripted.in_keys).copy())["action"]
+        td = policy(td)
+        for b in range(2):
+            assert torch.equal(td["action"][b], own["action"][b] if seen[b] else searched[b])
+        for key in state_keys:  # its memory follows every step, before the hand-over too
+            assert torch.equal(td[key], own[key])
+        kinds.append(seen.copy())
+        td = step_mdp(env.step(td))
+    kinds = np.array(kinds)
+    assert kinds.any() and not kinds.all()  # both parts acted in this test
+
+
+def test_the_hierarchical_search_is_asked_only_where_it_goes_on():
+    from occrl.baselines import HierarchicalPlanner
+    from occrl.baselines.observed_clearing import ObservedClearingRetriever
+
+    env = make_env(batch_size=3, stage=2, seed=1, heatmap_target=False)
+    searcher = HierarchicalPlanner(sweep_from="nearest", stop_when_located=True, seed=0)
+    retriever, alone = ObservedClearingRetriever(), ObservedClearingRetriever()
+    policy = SearchThenRetrieve(searcher, retriever, retriever_follows=True)
+    td = env.reset()
+    asked = np.zeros(3, int)
+    for _ in range(6):
+        searching = ~np.array([recreate(td[b]).target_detected for b in range(3)]) & ~(
+            policy.handed if policy.handed is not None else np.zeros(3, bool)
+        )
+        asked += searching
+        own = alone(td.select(*alone.in_keys).copy())["action"]  # the retriever alone, from the episode's start
+        td = policy(td)
+        for b in np.flatnonzero(~searching):
+            assert torch.equal(td["action"][b], own[b])
+        td = step_mdp(env.step(td))
+    assert [ep.step for ep in searcher.episodes] == asked.tolist()  # the handed-over worlds' searches stood still
+    assert 0 < asked.sum() < 18

@@ -9,7 +9,7 @@ from occrl.envs import make_env
 from occrl.modules import make_occnet
 from occrl.planners import HybridPlanner
 from occrl.training import Trainer, get_train_config
-from occrl.training.dagger import label_with_planner
+from occrl.training.dagger import label_with_planner, target_in_view
 from occrl.pretrained import weights_file
 from tests.helpers import first_iteration_labels
 
@@ -278,3 +278,34 @@ def test_clearing_observed_teacher_with_action_noise(tmp_path):
 
     with pytest.raises(ValueError, match="action_noise must be in"):
         OnlineTeacherPolicy(tr.net.policy, tr.expert, action_noise=-0.1)
+
+
+def test_clearing_observed_teacher_with_the_hierarchical_search(tmp_path):
+    """teacher_search="hierarchical": the drawn teacher acts from the episode's start, the
+    hierarchical planner's sweep before the first sight, the clearing retriever after, and every
+    frame it acted on is a label (the learner searches in none of them)."""
+    from occrl.baselines.handover import SearchThenRetrieve
+
+    cfg = get_train_config(
+        "tiny",
+        imitation_iters=5,
+        imitation_teacher="clearing-observed",
+        teacher_search="hierarchical",
+        imitation_beta_iters=0,
+        imitation_beta_min=0.5,
+        start_stage=2,
+        steps_per_env=20,
+    )
+    tr = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False)
+    assert isinstance(tr.expert, SearchThenRetrieve) and tr.expert.retriever_follows
+    data = tr._collect()
+    tr.close()
+    acted = data["teacher_acts"].reshape(data.shape)
+    starts = data["is_init"].reshape(data.shape)
+    assert bool(acted.any()) and not bool(acted.all())
+    assert bool(((acted[:, 1:] == acted[:, :-1]) | starts[:, 1:]).all())  # a drawn episode is the teacher's throughout
+    assert bool(acted[:, 0].any())  # from the start, before any sight of the target
+    sweeping = data["expert_action"][acted & ~target_in_view(data).reshape(data.shape)]
+    assert len(sweeping) and bool((sweeping[:, 1].abs() == 1.0).any())  # its sweeps: full lateral speed
+    with pytest.raises(ValueError, match="teacher_search applies to"):
+        get_train_config("tiny", imitation_iters=5, imitation_teacher="hierarchical", teacher_search="hierarchical").validate()
