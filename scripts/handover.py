@@ -3,6 +3,7 @@
     python scripts/handover.py --stage 2 --tasks 200 [--weights W.pt] [--to scripted|clearing|clearing-observed|hierarchical] [--out F.json]
     python scripts/handover.py --from stochastic-gen --to scripted ...   # the network's own policy searches
     python scripts/handover.py --from hierarchical --to hybrid-4x4|stochastic-gen|clearing-observed [--weights W.pt] ...
+    python scripts/handover.py --from hierarchical --to clearing-observed --teacher --action-noise 0.1 ...   # a DART teacher
 
 The hybrid 4x4 planner acts from the start of each held-out task (the README's task seeds; the
 planner reseeded per task as `occrl eval` does, so up to the hand-over the episodes are those of
@@ -38,6 +39,8 @@ import time
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import torch
+from tensordict import TensorDictBase
+from tensordict.nn import TensorDictModuleBase
 from tqdm import tqdm
 
 from occrl.eval.methods import make_method
@@ -47,11 +50,39 @@ from occrl.baselines.observed_clearing import ObservedClearingRetriever
 from occrl.envs.episodes import task_scenes
 from occrl.eval.runner import EVAL_SEED_BASE, paired_with, summarize
 from occrl.pretrained import network_name, weights_file
+from occrl.training.teachers import HIERARCHICAL_TEACHER
 
 #: the network's decision makers that can take over from the hierarchical planner's search
 NETWORK_RETRIEVERS = ("hybrid-4x4", "stochastic-gen")
 #: what can take over from the hierarchical planner's search, following the episode from its start
 FOLLOWING_RETRIEVERS = (*NETWORK_RETRIEVERS, "clearing-observed")
+
+
+class MotionNoise(TensorDictModuleBase):
+    """``policy`` with Gaussian noise of standard deviation ``sigma`` on its executed motion
+    (forward, lateral, rotation; clipped to [-1, 1]; the gripper command as decided), drawn from
+    a generator reseeded with each task's seed: a DART data run's disturbed teacher."""
+
+    def __init__(self, policy: TensorDictModuleBase, sigma: float) -> None:
+        super().__init__()
+        self.policy, self.sigma = policy, sigma
+        self.in_keys, self.out_keys = policy.in_keys, policy.out_keys
+        self.generator = torch.Generator().manual_seed(0)
+
+    def reseed(self, seed: int) -> None:
+        self.policy.reseed(seed)
+        self.generator.manual_seed(seed)
+
+    def reset(self) -> None:
+        self.policy.reset()
+
+    def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+        tensordict = self.policy(tensordict)
+        action = tensordict.get("action").clone()
+        noise = torch.randn(action[..., :3].shape, generator=self.generator) * self.sigma
+        action[..., :3] = (action[..., :3] + noise).clamp(-1.0, 1.0)
+        tensordict.set("action", action)
+        return tensordict
 
 
 def main() -> None:
@@ -66,8 +97,25 @@ def main() -> None:
         "--to", default="scripted", choices=("scripted", "clearing", "clearing-observed", "hierarchical", *NETWORK_RETRIEVERS)
     )
     parser.add_argument("--baseline", default=None, help="an `occrl eval --out` file of the searcher alone on the same tasks")
+    parser.add_argument(
+        "--teacher",
+        action="store_true",
+        help="--from hierarchical: the searcher with the training teacher's settings (occrl.training.teachers.HIERARCHICAL_TEACHER: "
+        "1 s per OMPL query, re-planning when the world leaves its plan), as `occrl train --teacher-search hierarchical` runs it",
+    )
+    parser.add_argument(
+        "--action-noise",
+        type=float,
+        default=0.0,
+        help="Gaussian noise of this standard deviation added to every executed motion (forward, lateral, rotation; clipped to [-1, 1]), "
+        "seeded by the task: the combination as a DART data run (--teacher-action-noise) executes it",
+    )
     parser.add_argument("--out", default=None)
     args = parser.parse_args()
+    if not 0.0 <= args.action_noise <= 1.0:
+        parser.error(f"--action-noise must be in [0, 1] (a standard deviation in action units), got {args.action_noise}")
+    if args.teacher and args.searcher != "hierarchical":
+        parser.error("--teacher applies to --from hierarchical")
     torch.set_num_threads(1)
     if args.searcher == "hierarchical" and args.to not in FOLLOWING_RETRIEVERS:
         parser.error(f"--from hierarchical hands over to one of {list(FOLLOWING_RETRIEVERS)}; got --to {args.to}")
@@ -75,7 +123,8 @@ def main() -> None:
         parser.error(f"--to {args.to} takes over from --from hierarchical only")
     label = "hybrid 4x4" if args.searcher == "hybrid-4x4" else args.searcher
     if args.searcher == "hierarchical":  # the retriever decides from the start (its memory of the search kept), counts after
-        searcher = HierarchicalPlanner(sweep_from="nearest", stop_when_located=True)
+        settings = HIERARCHICAL_TEACHER if args.teacher else dict(sweep_from="nearest", stop_when_located=True)
+        searcher = HierarchicalPlanner(**settings)
         planner = make_method(args.to if args.to in NETWORK_RETRIEVERS else "hierarchical", weights_file(args.weights))  # primers
         retriever = ObservedClearingRetriever() if args.to == "clearing-observed" else planner.policy
         policy = SearchThenRetrieve(searcher, retriever, retriever_follows=True)
@@ -83,6 +132,7 @@ def main() -> None:
         planner = make_method(args.searcher, weights_file(args.weights))
         retriever = ObservedClearingRetriever() if args.to == "clearing-observed" else make_method(args.to).policy
         policy = SearchThenRetrieve(planner.policy, retriever)
+    acting = MotionNoise(policy, args.action_noise) if args.action_noise > 0 else policy
     seeds = list(range(EVAL_SEED_BASE, EVAL_SEED_BASE + args.tasks))
     t0 = time.time()
     results, handed = [], []
@@ -91,7 +141,7 @@ def main() -> None:
         policy.reset()  # a new task (run_episodes reseeds both parts with the task seed)
         policy.handovers = before
         handed.append(None)
-        results += planner.run_episodes(task_scenes(args.stage, [seed]), [seed], batch_size=1, policy=policy)
+        results += planner.run_episodes(task_scenes(args.stage, [seed]), [seed], batch_size=1, policy=acting)
         handed[-1] = policy.handovers > before
     summary = summarize(results)
     lo, hi = summary["success_ci95"]
@@ -103,6 +153,8 @@ def main() -> None:
         "stage": args.stage,
         "from": args.searcher,
         "to": args.to,
+        "teacher_settings": args.teacher,
+        "action_noise": args.action_noise,
         "weights": network_name(args.weights or "occnet"),
         "handovers": policy.handovers,
         **summary,
