@@ -155,7 +155,10 @@ def main() -> None:
         "to": args.to,
         "teacher_settings": args.teacher,
         "action_noise": args.action_noise,
-        "weights": network_name(args.weights or "occnet"),
+        # the network that decides (none where the hierarchical planner hands over to the clearing retriever)
+        "weights": None
+        if args.searcher == "hierarchical" and args.to not in NETWORK_RETRIEVERS
+        else network_name(args.weights or "occnet"),
         "handovers": policy.handovers,
         **summary,
     }

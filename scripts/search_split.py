@@ -73,7 +73,10 @@ def main() -> None:
                 hidden = {scene.seed for scene in hidden_target_scenes(stage, unknown)}
                 known.update({s: s in hidden for s in unknown})
             groups = {"seen at the start": [s for s in seeds if not known[s]], "hidden at the start": [s for s in seeds if known[s]]}
-            label = f"{results['method']} ({results.get('network') or 'no network'}), stage {stage}, {len(seeds)} tasks: {path}"
+            method = results.get("method") or f"{results['from']} -> {results['to']}"  # or scripts/handover.py's results
+            label = (
+                f"{method} ({results.get('network') or results.get('weights') or 'no network'}), stage {stage}, {len(seeds)} tasks: {path}"
+            )
             out[path] = print_groups(label, episodes, groups)
     else:
         path = args.results[0]

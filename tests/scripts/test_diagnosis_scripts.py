@@ -124,6 +124,47 @@ def test_handover_from_the_networks_own_policy_keeps_its_episodes_until_the_hand
     assert never is not None and int(never.group(1)) > 0 and never.group(1) == never.group(2)
 
 
+def test_handover_from_the_hierarchical_search(tmp_path):
+    """--from hierarchical: the OMPL planner's sweep until the first detection, then the clearing
+    retriever (no network: none recorded) or the network, which decided from the start; the
+    noise option disturbs the executed motion only where asked, and both results split by the
+    start (search_split reads them)."""
+    plain, noisy = tmp_path / "plain.json", tmp_path / "noisy.json"
+    out = _run(
+        "scripts/handover.py", "--from", "hierarchical", "--to", "clearing-observed", "--teacher", "--tasks", "3", "--out", str(plain)
+    )
+    assert "hierarchical -> clearing-observed at the first detection, stage 2" in out
+    _run(
+        "scripts/handover.py",
+        "--from",
+        "hierarchical",
+        "--to",
+        "clearing-observed",
+        "--teacher",
+        "--action-noise",
+        "0.3",
+        "--tasks",
+        "3",
+        "--out",
+        str(noisy),
+    )
+    first, second = json.loads(plain.read_text()), json.loads(noisy.read_text())
+    assert first["weights"] is None and first["teacher_settings"] and second["action_noise"] == 0.3
+    assert [e["actions"] for e in first["episodes"]] != [e["actions"] for e in second["episodes"]]
+    out = _run("scripts/handover.py", "--from", "hierarchical", "--to", "stochastic-gen", "--tasks", "2")
+    assert "hierarchical -> stochastic-gen at the first detection, stage 2" in out and "handed over in" in out
+    split = _run("scripts/search_split.py", "--start-only", "--results", str(plain))
+    assert "hierarchical -> clearing-observed (no network), stage 2, 3 tasks" in split
+    for bad_args, message in (
+        (["--from", "hierarchical", "--to", "scripted"], "--from hierarchical hands over to one of"),
+        (["--to", "stochastic-gen"], "takes over from --from hierarchical only"),
+        (["--teacher"], "--teacher applies to --from hierarchical"),
+        (["--from", "hierarchical", "--to", "clearing-observed", "--action-noise", "2"], "--action-noise must be in [0, 1]"),
+    ):
+        bad = subprocess.run([sys.executable, "scripts/handover.py", *bad_args], capture_output=True, text=True, cwd=ROOT)
+        assert bad.returncode == 2 and message in bad.stderr
+
+
 def test_detail_use_is_zero_for_a_network_just_converted(tmp_path):
     weights = tmp_path / "fine.pt"
     _run("scripts/finer_input.py", "--weights", "occnet", "--out", str(weights))
