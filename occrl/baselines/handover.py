@@ -34,7 +34,10 @@ class SearchThenRetrieve(TensorDictModuleBase):
     With ``retriever_follows=True`` the retriever decides at every step from the episode's
     start, on the same observations and its own recurrent state (a network's LSTM or a hybrid
     planner then retrieves with the memory of the whole search, as it would acting alone); its
-    actions count from the hand-over on, and its first observation there is not flagged.
+    actions count from the hand-over on, and its first observation there is not flagged. The
+    searcher is then asked only for the worlds still searching where it can be (a searcher with
+    ``act_on_worlds``, such as the hierarchical planner), otherwise for every world on the same
+    tensordict until all have been handed over.
 
     Examples:
         >>> from occrl.baselines import ScriptedRetriever
