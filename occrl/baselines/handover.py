@@ -123,5 +123,4 @@ class SearchThenRetrieve(TensorDictModuleBase):
             action = out.get("action").reshape(n, -1).clone()
             action[torch.from_numpy(searching)] = searched
             out.set("action", action.reshape(out.get("action").shape))
-        self._retrieving = self._handed.copy()
         return out
