@@ -205,6 +205,13 @@ class TrainConfig:
     a sweep finds nothing; then the clearing retriever, which has followed the whole episode; the
     teacher acts and labels its drawn episodes from their start. The two together solve 86.5 % of
     the held-out stage-2 tasks: scripts/handover.py --from hierarchical --to clearing-observed)."""
+    teacher_roll_in: int = 0
+    """The "hierarchical" and "clearing-observed" teachers: in each episode the teacher is drawn for,
+    the learner acts first, for a number of steps drawn uniformly from 0 to this, and the teacher
+    from then on (it has seen the whole episode); only the teacher's frames are labels. The
+    teacher's demonstrations then start from the states the learner's own policy reaches (roll-in
+    by the learner, roll-out by the teacher, as in AggreVaTe / LOLS; beyond the paper,
+    docs/decisions.md). 0: the teacher acts from its usual start."""
     imitation_beta_iters: int = 10
     """The teacher acts with probability decaying from 1 to imitation_beta_min over these iterations
     (0: imitation_beta_min from the start)."""
@@ -320,6 +327,10 @@ class TrainConfig:
         if self.teacher_action_noise > 0 and self.imitation_teacher not in ("hierarchical", "clearing-observed"):
             raise ValueError(
                 f"teacher_action_noise applies to imitation_teacher 'hierarchical' or 'clearing-observed', not {self.imitation_teacher!r}"
+            )
+        if self.teacher_roll_in > 0 and self.imitation_teacher not in ("hierarchical", "clearing-observed"):
+            raise ValueError(
+                f"teacher_roll_in applies to imitation_teacher 'hierarchical' or 'clearing-observed', not {self.imitation_teacher!r}"
             )
         if self.teacher_search != "learner" and self.imitation_teacher != "clearing-observed":
             raise ValueError(f"teacher_search applies to imitation_teacher 'clearing-observed', not {self.imitation_teacher!r}")

@@ -143,11 +143,15 @@ class OnlineTeacherPolicy(ExpertMixPolicy):
         label_kinds: tuple[str, ...] | None = None,
         from_first_sight: bool = False,
         action_noise: float = 0.0,
+        roll_in: int = 0,
     ) -> None:
         super().__init__(policy, teacher, beta)
         if not 0.0 <= float(action_noise) <= 1.0:
             raise ValueError(f"action_noise must be in [0, 1] (a standard deviation in action units), got {action_noise!r}")
+        if isinstance(roll_in, bool) or not isinstance(roll_in, int) or roll_in < 0:
+            raise ValueError(f"roll_in must be an integer >= 0 (the most steps the learner acts before the teacher), got {roll_in!r}")
         self.action_noise = float(action_noise)
+        self.roll_in = roll_in
         if "privileged" in teacher.in_keys:
             raise ValueError("the online teacher must read observations only; its in_keys contain 'privileged'")
         if label_kinds is not None and not hasattr(teacher, "last_action_kinds"):
@@ -158,6 +162,8 @@ class OnlineTeacherPolicy(ExpertMixPolicy):
         self.from_first_sight = bool(from_first_sight)
         self._teacher_acts: torch.Tensor | None = None  # per world: the teacher acts in this episode
         self._seen: torch.Tensor | None = None  # per world: the target has been in view in this episode
+        self._step: torch.Tensor | None = None  # per world: steps taken in this episode before this one
+        self._teacher_from: torch.Tensor | None = None  # per world: the step from which the teacher acts (roll_in)
 
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
         tensordict = self.policy(tensordict)
@@ -173,6 +179,14 @@ class OnlineTeacherPolicy(ExpertMixPolicy):
             seen_before = torch.zeros_like(in_view) if self._seen is None or self._seen.shape != in_view.shape else self._seen
             self._seen = in_view | (seen_before & ~is_init)
             acts = acts & self._seen
+        if self.roll_in > 0:  # the learner acts first, for a drawn number of steps
+            if self._step is None or self._step.shape != is_init.shape:
+                self._step = torch.zeros(is_init.shape, dtype=torch.long)
+                self._teacher_from = torch.zeros(is_init.shape, dtype=torch.long)
+            self._step = torch.where(is_init, torch.zeros_like(self._step), self._step + 1)
+            drawn = torch.randint(0, self.roll_in + 1, is_init.shape)
+            self._teacher_from = torch.where(is_init, drawn, self._teacher_from)
+            acts = acts & (self._step >= self._teacher_from)
         acts = acts.unsqueeze(-1)
         tensordict.set("expert_action", label)
         if self.label_kinds is not None:

@@ -91,10 +91,19 @@ def collection_policy(config: TrainConfig, acting_policy, expert):
     imitation (the share the teacher acts is set per iteration on the returned policy)."""
     if config.imitation_iters > 0 and config.imitation_teacher == "hierarchical":
         kinds = None if config.teacher_label_kinds == "all" else tuple(config.teacher_label_kinds.split(","))
-        return OnlineTeacherPolicy(acting_policy, expert, 0.0, label_kinds=kinds, action_noise=config.teacher_action_noise)
+        return OnlineTeacherPolicy(
+            acting_policy, expert, 0.0, label_kinds=kinds, action_noise=config.teacher_action_noise, roll_in=config.teacher_roll_in
+        )
     if config.imitation_iters > 0 and config.imitation_teacher == "clearing-observed":
         searches = config.teacher_search != "learner"  # else the learner searches, the teacher acts from the first sight
-        return OnlineTeacherPolicy(acting_policy, expert, 0.0, from_first_sight=not searches, action_noise=config.teacher_action_noise)
+        return OnlineTeacherPolicy(
+            acting_policy,
+            expert,
+            0.0,
+            from_first_sight=not searches,
+            action_noise=config.teacher_action_noise,
+            roll_in=config.teacher_roll_in,
+        )
     if config.imitation_iters > 0 and config.imitation_teacher != "self":
         return ExpertMixPolicy(acting_policy, expert, 0.0)
     return acting_policy

@@ -309,3 +309,45 @@ def test_clearing_observed_teacher_with_the_hierarchical_search(tmp_path):
     assert len(sweeping) and bool((sweeping[:, 1].abs() == 1.0).any())  # its sweeps: full lateral speed
     with pytest.raises(ValueError, match="teacher_search applies to"):
         get_train_config("tiny", imitation_iters=5, imitation_teacher="hierarchical", teacher_search="hierarchical").validate()
+
+
+def test_clearing_observed_teacher_after_the_learners_roll_in(tmp_path):
+    """teacher_roll_in: in a drawn episode the learner acts for its first T steps (T drawn from
+    0..roll_in per world and episode), the teacher from then on, and only the teacher's frames are
+    labels; other teachers refuse the setting."""
+    cfg = get_train_config(
+        "tiny",
+        imitation_iters=5,
+        imitation_teacher="clearing-observed",
+        teacher_search="hierarchical",
+        teacher_roll_in=6,
+        imitation_beta_iters=0,
+        imitation_beta_min=1.0,
+        start_stage=1,
+        steps_per_env=20,
+    )
+    tr = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False, init_weights=weights_file("occnet"))
+    data = tr._collect()
+    tr.close()
+    acted = data["teacher_acts"].reshape(data.shape)
+    starts = data["is_init"].reshape(data.shape)
+    first_steps = []
+    for w in range(data.shape[0]):
+        episode_starts = torch.nonzero(starts[w]).flatten().tolist() + [data.shape[1]]
+        for begin, end in zip(episode_starts[:-1], episode_starts[1:]):
+            steps = acted[w, begin:end]
+            t = int(torch.argmax(steps.to(torch.int64))) if bool(steps.any()) else end - begin
+            assert not bool(steps[:t].any()) and bool(steps[t:].all())  # the learner first, then the teacher to the end
+            if end < data.shape[1]:  # a whole episode: the teacher took over within roll_in steps or it had ended
+                assert t <= 6 or t == end - begin
+            first_steps.append(t)
+    assert min(first_steps) == 0 and max(first_steps) > 1  # drawn: some episodes from the start, some later
+    learner = ~acted
+    assert bool((data["action"][learner] != data["expert_action"][learner]).any())  # the learner's own actions there
+    with pytest.raises(ValueError, match="teacher_roll_in applies to"):
+        get_train_config("tiny", imitation_iters=5, teacher_roll_in=3).validate()
+    from occrl.training.dagger import OnlineTeacherPolicy
+
+    for bad in (-1, 2.5, True):
+        with pytest.raises(ValueError, match="roll_in must be an integer"):
+            OnlineTeacherPolicy(tr.net.policy, tr.expert, roll_in=bad)
