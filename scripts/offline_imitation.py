@@ -82,6 +82,10 @@ NOT_LABELS = (
     # labels are the same teacher's decisions, on another mix of tasks
     "start_scenes",
     "start_scenes_share",
+    # where the teacher's demonstrations start and how its motion was disturbed (DART noise, the
+    # learner's roll-in): the labels are the same teacher's undisturbed decisions
+    "teacher_action_noise",
+    "teacher_roll_in",
 )
 
 

@@ -99,6 +99,14 @@ def test_data_runs_of_the_same_settings_are_fitted_together_and_others_refused(t
     _data_run(pooled, 10, "--start-scenes", str(tmp_path / "pool.json"), "--start-scenes-share", "1", "--iterations", "1")
     both = _run("scripts/offline_imitation.py", "--data", str(first), str(pooled), "--summary").stdout
     assert "together: 12 labelled sequences" in both
+    # the same teacher's labels whether its motion was disturbed (DART) or the learner rolled in first
+    teacher = ("--imitation-teacher", "clearing-observed", "--collector", "single", "--imitation-beta-min", "1",
+               "--imitation-beta-iters", "0", "--iterations", "1")  # fmt: skip
+    plain, disturbed = tmp_path / "plain", tmp_path / "disturbed"
+    _data_run(plain, 10, *teacher)
+    _data_run(disturbed, 10, *teacher, "--teacher-action-noise", "0.1", "--teacher-roll-in", "5")
+    mixed = _run("scripts/offline_imitation.py", "--data", str(plain), str(disturbed), "--summary", check=False)
+    assert mixed.returncode == 0 and "together:" in mixed.stdout, mixed.stderr
     _data_run(other, 10, "--heatmap-coeff", "0", "--iterations", "1")
     bad = _run("scripts/offline_imitation.py", "--data", str(first), str(other), "--summary", check=False)
     assert bad.returncode != 0 and "collected with other settings" in bad.stderr and "heatmap_coeff" in bad.stderr
