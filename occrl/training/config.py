@@ -328,6 +328,10 @@ class TrainConfig:
             raise ValueError(
                 f"teacher_action_noise applies to imitation_teacher 'hierarchical' or 'clearing-observed', not {self.imitation_teacher!r}"
             )
+        if isinstance(self.teacher_roll_in, bool) or not isinstance(self.teacher_roll_in, int) or self.teacher_roll_in < 0:
+            raise ValueError(
+                f"teacher_roll_in must be an integer >= 0 (the most steps the learner acts first), got {self.teacher_roll_in!r}"
+            )
         if self.teacher_roll_in > 0 and self.imitation_teacher not in ("hierarchical", "clearing-observed"):
             raise ValueError(
                 f"teacher_roll_in applies to imitation_teacher 'hierarchical' or 'clearing-observed', not {self.imitation_teacher!r}"

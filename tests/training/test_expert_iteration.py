@@ -346,6 +346,8 @@ def test_clearing_observed_teacher_after_the_learners_roll_in(tmp_path):
     assert bool((data["action"][learner] != data["expert_action"][learner]).any())  # the learner's own actions there
     with pytest.raises(ValueError, match="teacher_roll_in applies to"):
         get_train_config("tiny", imitation_iters=5, teacher_roll_in=3).validate()
+    with pytest.raises(ValueError, match="teacher_roll_in must be an integer"):
+        get_train_config("tiny", imitation_iters=5, imitation_teacher="clearing-observed", teacher_roll_in=-2).validate()
     from occrl.training.dagger import OnlineTeacherPolicy
 
     for bad in (-1, 2.5, True):
