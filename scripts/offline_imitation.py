@@ -19,6 +19,8 @@ the learner, so the data can be collected once and trained on for as long as the
         --out OUT/stochastic-gen_s2_step6000.json
     # the data run's size and its teacher's success
     python scripts/offline_imitation.py --data DATA --summary
+    # with --teacher-roll-in: how the teacher's demonstrations begin, by the learner's steps before it
+    python scripts/offline_imitation.py --data DATA --takeover
     # several data runs of the same settings (e.g. collected side by side with other --seed), fitted as one
     python scripts/offline_imitation.py --data DATA DATA_SEED8 --init-weights occnet-takeover --out OUT2
     # how far each network's mean action is from the teacher's, on a data run none was fitted on
@@ -119,6 +121,10 @@ class Args:
     assess: list[str] = dataclasses.field(default_factory=list)
     """Fit nothing: print, for each of these networks, how far its mean action lies from the
     teacher's on every labelled frame of --data (a data run that none of them was fitted on)."""
+    takeover: bool = False
+    """Fit nothing: print, by how many steps the learner acted before the teacher took over
+    (data runs with --teacher-roll-in), how often the teacher's first three commands back the
+    gripper out (forward below -0.3) and their mean forward command."""
 
 
 def parse_args(argv: list[str] | None = None) -> Args:
@@ -127,8 +133,8 @@ def parse_args(argv: list[str] | None = None) -> Args:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     for f in dataclasses.fields(Args):
         required = f.default is dataclasses.MISSING
-        if f.name == "summary":
-            parser.add_argument("--summary", action="store_true", help=docs[f.name])
+        if f.name in ("summary", "takeover"):
+            parser.add_argument(f"--{f.name}", action="store_true", help=docs[f.name])
             continue
         if f.name == "assess":
             parser.add_argument("--assess", nargs="+", default=[], metavar="WEIGHTS", help=docs[f.name])
@@ -143,8 +149,8 @@ def parse_args(argv: list[str] | None = None) -> Args:
     args = Args(**vars(parser.parse_args(argv)))
     if args.steps < 1 or args.save_every < 1 or args.log_every < 1 or args.minibatch < 0 or args.lr < 0:
         parser.error(f"--steps, --save-every and --log-every must be >= 1, --minibatch and --lr >= 0; got {args}")
-    if not args.out and not args.assess and not args.summary:
-        parser.error("--out is needed (the fit's run folder) unless --assess or --summary is given")
+    if not args.out and not args.assess and not args.summary and not args.takeover:
+        parser.error("--out is needed (the fit's run folder) unless --assess, --summary or --takeover is given")
     if not 0.0 < args.validation_fraction < 1.0:
         parser.error(f"--validation-fraction must lie in (0, 1), got {args.validation_fraction}")
     return args
@@ -196,6 +202,43 @@ def labelled_sequences(data_run: Path) -> tuple[TrainConfig, TensorDictBase]:
             batch.set("expert_weight", torch.ones(batch.shape))
         kept.append(batch[batch.get("expert_weight").flatten(1).sum(1) > 0])
     return config, torch.cat(kept)
+
+
+TAKEOVER_BANDS = ((0, 0), (1, 5), (6, 10), (11, 20), (21, C.MAX_EPISODE_STEPS))
+
+
+def takeover_table(data: TensorDictBase, first: int = 3, backward: float = -0.3) -> str:
+    """Markdown: the demonstrations (labelled episodes that start inside a sequence) by the step of
+    the teacher's first labelled frame, i.e. how long the learner acted first, with the share of
+    the teacher's first ``first`` forward commands below ``backward`` and their mean."""
+    starts, weights, forward = (
+        data.get("is_init").reshape(data.shape),
+        data.get("expert_weight").reshape(data.shape),
+        data.get("expert_action")[..., 0],
+    )
+    by_band = {band: [] for band in TAKEOVER_BANDS}
+    skipped = 0
+    for n in range(data.shape[0]):
+        bounds = torch.nonzero(starts[n]).flatten().tolist()
+        skipped += int(bool((weights[n, : bounds[0] if bounds else data.shape[1]] > 0).any()))  # began before the window
+        for begin, end in zip(bounds, bounds[1:] + [data.shape[1]]):
+            labelled = torch.nonzero(weights[n, begin:end] > 0).flatten()
+            if len(labelled) == 0:
+                continue
+            t = int(labelled[0])
+            band = next(b for b in TAKEOVER_BANDS if b[0] <= t <= b[1])
+            by_band[band].append(forward[n, begin + t : min(begin + t + first, end)])
+    lines = [
+        f"| learner's steps before the teacher | demonstrations | teacher's first {first} forward commands below {backward} | their mean |",
+        "| --- | --- | --- | --- |",
+    ]
+    for (low, high), commands in by_band.items():
+        if commands:
+            x = torch.cat(commands)
+            label = f"{low}" if low == high else f"{low}-{high}"
+            lines.append(f"| {label} | {len(commands)} | {100 * float((x < backward).float().mean()):.1f} % | {float(x.mean()):+.2f} |")
+    lines.append(f"({skipped} labelled episodes began before their sequence's window and are not counted)")
+    return "\n".join(lines)
 
 
 def data_summary(data_run: Path, data: TensorDictBase) -> str:
@@ -332,6 +375,9 @@ def main(argv: list[str] | None = None) -> None:
     if len(runs) > 1:
         print(f"together: {data.shape[0]} labelled sequences, {int((data.get('expert_weight') > 0).sum())} labelled frames")
     if args.summary:
+        return
+    if args.takeover:
+        print(takeover_table(data))
         return
     overrides = {"minibatch_envs": args.minibatch or config.minibatch_envs, "lr": args.lr or config.lr or 3e-4}
     config = dataclasses.replace(config, **overrides)

@@ -107,6 +107,34 @@ def test_data_runs_of_the_same_settings_are_fitted_together_and_others_refused(t
     _data_run(disturbed, 10, *teacher, "--teacher-action-noise", "0.1", "--teacher-roll-in", "5")
     mixed = _run("scripts/offline_imitation.py", "--data", str(plain), str(disturbed), "--summary", check=False)
     assert mixed.returncode == 0 and "together:" in mixed.stdout, mixed.stderr
+    takeover = _run("scripts/offline_imitation.py", "--data", str(disturbed), "--takeover").stdout
+    assert "| learner's steps before the teacher | demonstrations |" in takeover
     _data_run(other, 10, "--heatmap-coeff", "0", "--iterations", "1")
     bad = _run("scripts/offline_imitation.py", "--data", str(first), str(other), "--summary", check=False)
     assert bad.returncode != 0 and "collected with other settings" in bad.stderr and "heatmap_coeff" in bad.stderr
+
+
+def test_takeover_table_counts_each_demonstration_by_the_teachers_first_frame():
+    """--takeover's table: a demonstration is a labelled episode; it is counted in the band of its
+    first labelled frame's step, with the teacher's first three forward commands from there."""
+    import sys
+
+    from tensordict import TensorDict
+
+    sys.path.insert(0, str(ROOT / "scripts"))
+    try:
+        from offline_imitation import takeover_table
+    finally:
+        sys.path.remove(str(ROOT / "scripts"))
+    is_init, weight, action = torch.zeros(2, 20, 1, dtype=torch.bool), torch.zeros(2, 20), torch.zeros(2, 20, 4)
+    is_init[0, 0] = is_init[0, 10] = is_init[1, 0] = True
+    weight[0, 0:8] = 1.0  # episode 1: the teacher from its start, moving forward
+    action[0, 0:3, 0] = 0.5
+    weight[0, 17:20] = 1.0  # episode 2: the learner for 7 steps first, then the teacher backing out twice
+    action[0, 17:20, 0] = torch.tensor([-1.0, -0.5, 0.0])
+    # world 1: an episode the teacher never labelled (not counted)
+    data = TensorDict({"is_init": is_init, "expert_weight": weight, "expert_action": action}, batch_size=[2, 20])
+    lines = takeover_table(data).splitlines()
+    assert lines[2] == "| 0 | 1 | 0.0 % | +0.50 |"
+    assert lines[3] == "| 6-10 | 1 | 66.7 % | -0.50 |"
+    assert len(lines) == 5 and lines[4].startswith("(0 labelled episodes began before")
