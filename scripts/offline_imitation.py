@@ -23,6 +23,8 @@ the learner, so the data can be collected once and trained on for as long as the
     python scripts/offline_imitation.py --data DATA --takeover
     # several data runs of the same settings (e.g. collected side by side with other --seed), fitted as one
     python scripts/offline_imitation.py --data DATA DATA_SEED8 --init-weights occnet-takeover --out OUT2
+    # only the first 100 iterations of a longer data run (to compare with a run of 100 on the same seed)
+    python scripts/offline_imitation.py --data DATA --first-iterations 100 --init-weights occnet-takeover --out OUT3
     # how far each network's mean action is from the teacher's, on a data run none was fitted on
     # (step 1 with another --seed and fewer --iterations)
     python scripts/offline_imitation.py --data DATA2 --assess occnet-takeover OUT/weights_step6000.pt
@@ -96,6 +98,9 @@ class Args:
     data: list[str]
     """Run folder(s) of the data run(s): each checkpoint names its settings and its DAgger data set.
     Several runs (of the same settings but for their seeds and lengths) are fitted as one data set."""
+    first_iterations: int = 0
+    """Read only the first N iterations of each data run (0: all it collected): e.g. a longer run cut
+    to the length of another, so that two fits compare on the same episodes."""
     out: str = ""
     """Run folder of this fit: metrics.jsonl, weights_step<N>.pt, weights.pt, checkpoint.pt
     (needed unless --assess or --summary)."""
@@ -147,8 +152,8 @@ def parse_args(argv: list[str] | None = None) -> Args:
             "--" + f.name.replace("_", "-"), type=kind, required=required, default=None if required else f.default, help=docs[f.name]
         )
     args = Args(**vars(parser.parse_args(argv)))
-    if args.steps < 1 or args.save_every < 1 or args.log_every < 1 or args.minibatch < 0 or args.lr < 0:
-        parser.error(f"--steps, --save-every and --log-every must be >= 1, --minibatch and --lr >= 0; got {args}")
+    if args.steps < 1 or args.save_every < 1 or args.log_every < 1 or args.minibatch < 0 or args.lr < 0 or args.first_iterations < 0:
+        parser.error(f"--steps, --save-every and --log-every must be >= 1, --minibatch, --lr and --first-iterations >= 0; got {args}")
     if not args.out and not args.assess and not args.summary and not args.takeover:
         parser.error("--out is needed (the fit's run folder) unless --assess, --summary or --takeover is given")
     if not 0.0 < args.validation_fraction < 1.0:
@@ -156,15 +161,15 @@ def parse_args(argv: list[str] | None = None) -> Args:
     return args
 
 
-def labelled_sequences_of_runs(data_runs: list[Path]) -> tuple[TrainConfig, TensorDictBase, list[int]]:
-    """:func:`labelled_sequences` of several data runs, concatenated in the order given, and each
-    run's count of sequences; their settings must agree except in :data:`NOT_LABELS` (the first
-    run's are returned)."""
-    config, data = labelled_sequences(data_runs[0])
+def labelled_sequences_of_runs(data_runs: list[Path], first_iterations: int = 0) -> tuple[TrainConfig, TensorDictBase, list[int]]:
+    """:func:`labelled_sequences` of several data runs (each cut to its first ``first_iterations``
+    when > 0), concatenated in the order given, and each run's count of sequences; their settings
+    must agree except in :data:`NOT_LABELS` (the first run's are returned)."""
+    config, data = labelled_sequences(data_runs[0], first_iterations)
     parts = [data]
     first = config.to_dict()
     for run in data_runs[1:]:
-        other, more = labelled_sequences(run)
+        other, more = labelled_sequences(run, first_iterations)
         theirs = other.to_dict()
         differ = sorted(k for k, v in theirs.items() if k not in NOT_LABELS and first.get(k) != v)
         if differ:
@@ -179,8 +184,9 @@ def labelled_sequences_of_runs(data_runs: list[Path]) -> tuple[TrainConfig, Tens
     return config, parts[0] if len(parts) == 1 else torch.cat(parts), [p.shape[0] for p in parts]
 
 
-def labelled_sequences(data_run: Path) -> tuple[TrainConfig, TensorDictBase]:
-    """The data run's settings and its aggregate's sequences with at least one labelled frame, [N, T]."""
+def labelled_sequences(data_run: Path, first_iterations: int = 0) -> tuple[TrainConfig, TensorDictBase]:
+    """The data run's settings and its aggregate's sequences with at least one labelled frame, [N, T]
+    (of its first ``first_iterations`` iterations when > 0)."""
     obj = load_checkpoint(data_run / CHECKPOINT)
     config = TrainConfig.from_dict(obj["train_config"])
     name = obj["state"].get("dagger_data")
@@ -195,6 +201,10 @@ def labelled_sequences(data_run: Path) -> tuple[TrainConfig, TensorDictBase]:
             f"{data_run / name} holds {len(buffer.batches)} of the run's {obj['state']['iteration']} iterations: "
             "collect with --imitation-buffer-iters at least --iterations so the data set keeps them all"
         )
+    if first_iterations:
+        if first_iterations > obj["state"]["iteration"]:
+            raise ValueError(f"--first-iterations {first_iterations}: {data_run} has collected only {obj['state']['iteration']} iterations")
+        del buffer.batches[first_iterations:]
     kept = []
     while buffer.batches:  # batch by batch, so that the data set is in memory about once
         batch = buffer.batches.pop(0)
@@ -241,11 +251,13 @@ def takeover_table(data: TensorDictBase, first: int = 3, backward: float = -0.3)
     return "\n".join(lines)
 
 
-def data_summary(data_run: Path, data: TensorDictBase) -> str:
-    """One line: the data run's iterations, its episodes (the first of each world in each
-    iteration, as the trainer counts them) and their success with a 95 % interval, and what the
-    fit reads of it."""
+def data_summary(data_run: Path, data: TensorDictBase, first_iterations: int = 0) -> str:
+    """One line: the data run's iterations (its first ``first_iterations`` when > 0), its episodes
+    (the first of each world in each iteration, as the trainer counts them) and their success with
+    a 95 % interval, and what the fit reads of it."""
     iterations = load_checkpoint(data_run / CHECKPOINT)["state"]["iteration"]
+    if first_iterations:
+        iterations = min(iterations, first_iterations)
     rows = [json.loads(line) for line in (data_run / "metrics.jsonl").read_text().splitlines() if line.strip()]
     rows = [r for r in rows if r["iteration"] <= iterations]
     episodes = sum(r["episodes"] for r in rows)
@@ -367,10 +379,10 @@ def main(argv: list[str] | None = None) -> None:
         return
     args = parse_args(argv)
     runs = [Path(d) for d in args.data]
-    config, data, counts = labelled_sequences_of_runs(runs)
+    config, data, counts = labelled_sequences_of_runs(runs, args.first_iterations)
     start = 0
     for run, count in zip(runs, counts):  # each run's line (its sequences come in the order of the runs)
-        print(data_summary(run, data[start : start + count]))
+        print(data_summary(run, data[start : start + count], args.first_iterations))
         start += count
     if len(runs) > 1:
         print(f"together: {data.shape[0]} labelled sequences, {int((data.get('expert_weight') > 0).sum())} labelled frames")

@@ -74,6 +74,17 @@ def test_a_data_run_that_dropped_iterations_is_refused(tmp_path):
     assert bad.returncode != 0 and "holds 1 of the run's 2 iterations" in bad.stderr
 
 
+def test_first_iterations_reads_the_start_of_a_data_run_and_refuses_more_than_it_has(tmp_path):
+    data = tmp_path / "data"
+    _data_run(data, buffer_iters=10)
+    whole = _run("scripts/offline_imitation.py", "--data", str(data), "--summary").stdout
+    first = _run("scripts/offline_imitation.py", "--data", str(data), "--summary", "--first-iterations", "1").stdout
+    assert "2 iterations" in whole and "8 labelled sequences, 64 labelled frames" in whole
+    assert "1 iterations" in first and "4 labelled sequences, 32 labelled frames" in first
+    bad = _run("scripts/offline_imitation.py", "--data", str(data), "--summary", "--first-iterations", "3", check=False)
+    assert bad.returncode != 0 and "has collected only 2 iterations" in bad.stderr
+
+
 def test_data_runs_of_the_same_settings_are_fitted_together_and_others_refused(tmp_path):
     first, second, other = tmp_path / "first", tmp_path / "second", tmp_path / "other"
     _data_run(first, 10)
