@@ -249,22 +249,23 @@ def test_clearing_observed_teacher_with_successes_only(tmp_path):
     assert torch.equal(stored, acted * succeeded)
 
 
+def _clearing_teacher_collection(tmp_path, init_weights: str | None = None, **settings):
+    """One collection of a tiny run whose teacher is the observed clearing retriever (drawn per
+    episode from the first iteration on, ``imitation_beta_min`` of the settings): the trainer,
+    closed, and its data."""
+    cfg = get_train_config("tiny", imitation_iters=5, imitation_teacher="clearing-observed", imitation_beta_iters=0, **settings)
+    tr = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False, init_weights=init_weights)
+    data = tr._collect()
+    tr.close()
+    return tr, data
+
+
 def test_clearing_observed_teacher_with_action_noise(tmp_path):
     """teacher_action_noise (DART): where the teacher acts its motion is disturbed, the gripper
     command and the labels are its decisions; other teachers refuse the setting."""
-    cfg = get_train_config(
-        "tiny",
-        imitation_iters=5,
-        imitation_teacher="clearing-observed",
-        imitation_beta_iters=0,
-        imitation_beta_min=1.0,
-        teacher_action_noise=0.2,
-        start_stage=1,
-        steps_per_env=20,
+    tr, data = _clearing_teacher_collection(
+        tmp_path, weights_file("occnet"), imitation_beta_min=1.0, teacher_action_noise=0.2, start_stage=1, steps_per_env=20
     )
-    tr = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False, init_weights=weights_file("occnet"))
-    data = tr._collect()
-    tr.close()
     acted = data["teacher_acts"].reshape(data.shape)
     assert bool(acted.any())
     executed, decided = data["action"][acted], data["expert_action"][acted]
@@ -286,20 +287,10 @@ def test_clearing_observed_teacher_with_the_hierarchical_search(tmp_path):
     frame it acted on is a label (the learner searches in none of them)."""
     from occrl.baselines.handover import SearchThenRetrieve
 
-    cfg = get_train_config(
-        "tiny",
-        imitation_iters=5,
-        imitation_teacher="clearing-observed",
-        teacher_search="hierarchical",
-        imitation_beta_iters=0,
-        imitation_beta_min=0.5,
-        start_stage=2,
-        steps_per_env=20,
+    tr, data = _clearing_teacher_collection(
+        tmp_path, teacher_search="hierarchical", imitation_beta_min=0.5, start_stage=2, steps_per_env=20
     )
-    tr = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False)
     assert isinstance(tr.expert, SearchThenRetrieve) and tr.expert.retriever_follows
-    data = tr._collect()
-    tr.close()
     acted = data["teacher_acts"].reshape(data.shape)
     starts = data["is_init"].reshape(data.shape)
     assert bool(acted.any()) and not bool(acted.all())
@@ -315,20 +306,15 @@ def test_clearing_observed_teacher_after_the_learners_roll_in(tmp_path):
     """teacher_roll_in: in a drawn episode the learner acts for its first T steps (T drawn from
     0..roll_in per world and episode), the teacher from then on, and only the teacher's frames are
     labels; other teachers refuse the setting."""
-    cfg = get_train_config(
-        "tiny",
-        imitation_iters=5,
-        imitation_teacher="clearing-observed",
+    tr, data = _clearing_teacher_collection(
+        tmp_path,
+        weights_file("occnet"),
         teacher_search="hierarchical",
         teacher_roll_in=6,
-        imitation_beta_iters=0,
         imitation_beta_min=1.0,
         start_stage=1,
         steps_per_env=20,
     )
-    tr = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False, init_weights=weights_file("occnet"))
-    data = tr._collect()
-    tr.close()
     acted = data["teacher_acts"].reshape(data.shape)
     starts = data["is_init"].reshape(data.shape)
     first_steps = []
