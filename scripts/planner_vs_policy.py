@@ -157,6 +157,16 @@ NETWORKS = [
         "results/offline-imitation/fit-dart010-lr1e-4/stochastic-gen_s2_step8000.json",
         "results/offline-imitation/fit-dart010-lr1e-4/hybrid-4x4_s2_step8000.json",
     ),
+    Network(
+        "offline imitation, hierarchical search + DART 0.05, 2,606 demonstrations, 3,000 steps",
+        "results/offline-imitation/fit-dart005-more/stochastic-gen_s2_step3000.json",
+        "results/offline-imitation/fit-dart005-more/hybrid-4x4_s2_step3000.json",
+    ),
+    Network(
+        "that network + self-imitation of its successes, 80",
+        "results/offline-imitation/selfimit-from-fit3k/stochastic-gen_s2_iteration80.json",
+        "results/offline-imitation/selfimit-from-fit3k/hybrid-4x4_s2_iteration80.json",
+    ),
 ]
 
 
@@ -173,6 +183,16 @@ REPLICATES = {
             "results/retrieval-takeover/hybrid-4x4_s2_iteration75.json",
             "results/diagnosis/replicates/hybrid-4x4_s2_takeover_replicate1.json",
             "results/diagnosis/replicates/hybrid-4x4_s2_takeover_replicate2.json",
+        ],
+    ),
+    "self-imitation from the offline fit, 80": (
+        [
+            "results/offline-imitation/selfimit-from-fit3k/stochastic-gen_s2_iteration80.json",
+            "results/offline-imitation/selfimit-from-fit3k/stochastic-gen_s2_iteration80_replicate1.json",
+        ],
+        [
+            "results/offline-imitation/selfimit-from-fit3k/hybrid-4x4_s2_iteration80.json",
+            "results/offline-imitation/selfimit-from-fit3k/hybrid-4x4_s2_iteration80_replicate1.json",
         ],
     ),
     "PPO, value off the trunk 225": (
