@@ -47,8 +47,9 @@ def checkpoint_as_written_before(run_dir, config, edit) -> None:
 def first_iteration_labels(config, run_dir):
     """Train one iteration of ``config`` (from ``occnet``) in ``run_dir`` and return, per frame of
     the batch it collected, whether the teacher acted, whether the frame's episode succeeded, and
-    the imitation weight the DAgger aggregate stored (each iteration's collection is seeded, so the
-    batch collected first is the one trained on)."""
+    the imitation weight the DAgger aggregate stored. The iteration trains on the very batch
+    collected first: each collection is seeded, but a teacher whose plans have wall-clock budgets
+    (the hierarchical planner's OMPL queries) need not repeat its episodes on a loaded machine."""
     import torch
 
     from occrl.pretrained import weights_file
@@ -59,6 +60,7 @@ def first_iteration_labels(config, run_dir):
     data = trainer._collect()
     acted = data["teacher_acts"].reshape(data.shape).to(torch.float32)
     succeeded = successful_episode_frames(data).to(torch.float32)
+    trainer._collect = lambda: data
     trainer.train(iterations=1)
     trainer.close()
     (batch,) = trainer.learner.dagger.batches
