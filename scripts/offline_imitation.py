@@ -64,6 +64,7 @@ from occrl.objectives import imitation_nll
 from occrl.pretrained import network_name, weights_file
 from occrl.training import load_checkpoint, save_checkpoint
 from occrl.training.config import TrainConfig, dataclass_field_docs
+from occrl.training.cpu_time import tree_cpu_seconds
 from occrl.training.dagger_buffer import DaggerBuffer, as_float
 from occrl.training.learner import Learner, recurrent_layers_training
 from occrl.training.run_folder import CHECKPOINT
@@ -417,6 +418,7 @@ def main(argv: list[str] | None = None) -> None:
     settings = {k: v for k, v in dataclasses.asdict(args).items() if k not in NOT_SETTINGS}
     settings["sequences"] = data.shape[0]  # the data run's folder may have collected on since
     step = 0
+    spent = {"cpu_seconds": 0.0, "wall_seconds": 0.0}  # of the gradient steps and their logging, over every resume
     if (out / CHECKPOINT).exists():
         obj = load_checkpoint(out / CHECKPOINT, net, learner.optimizer)
         if {k: v for k, v in obj["state"]["settings"].items() if k not in NOT_SETTINGS} != settings:
@@ -424,8 +426,21 @@ def main(argv: list[str] | None = None) -> None:
         step = obj["state"]["step"]
         generator.set_state(obj["state"]["generator"])
         losses[:] = obj["state"]["losses"]  # the training losses since the last log line
+        # None: a fit checkpointed before its time was kept, so its totals are unknown
+        spent = {k: obj["state"].get(k) for k in spent}
         print(f"resumed {out / CHECKPOINT} at step {step}")
     meta = {"note": f"scripts/offline_imitation.py from {network_name(args.init_weights)} on {', '.join(args.data)}", "settings": settings}
+
+    cpu0, wall0 = tree_cpu_seconds(), time.monotonic()
+
+    def time_spent() -> dict[str, float | None]:
+        """CPU and wall seconds of the fit so far, this process's share added to the resumed totals."""
+        now = {"cpu_seconds": tree_cpu_seconds() - cpu0, "wall_seconds": time.monotonic() - wall0}
+        return {k: None if spent[k] is None else spent[k] + now[k] for k in spent}
+
+    def hours_spent() -> dict[str, float]:
+        """The fit's cost so far in hours (cpu_hours, wall_hours; absent when not known)."""
+        return {k.replace("seconds", "hours"): v / 3600 for k, v in time_spent().items() if v is not None}
 
     def checkpoint() -> None:
         save_checkpoint(
@@ -433,7 +448,7 @@ def main(argv: list[str] | None = None) -> None:
             net,
             learner.optimizer,
             config.to_dict(),
-            {"step": step, "generator": generator.get_state(), "settings": settings, "losses": losses},
+            {"step": step, "generator": generator.get_state(), "settings": settings, "losses": losses, **time_spent()},
         )
 
     metrics = out / "metrics.jsonl"
@@ -464,19 +479,20 @@ def main(argv: list[str] | None = None) -> None:
                 "loss": sum(losses) / len(losses),
                 "validation_nll": validation_nll(net, validation, config.imitation_min_scale, config.minibatch_envs),
             }
+            row.update(hours_spent())
             losses.clear()
             with metrics.open("a") as f:
                 f.write(json.dumps(row) + "\n")
             bar.set_postfix(loss=f"{row['loss']:.3f}", val=f"{row['validation_nll']:.3f}")
         if step % args.save_every == 0 or step == args.steps:
-            save_weights(out / f"weights_step{step}.pt", net, {**meta, "step": step})
+            save_weights(out / f"weights_step{step}.pt", net, {**meta, "step": step, **hours_spent()})
             checkpoint()
             last_checkpoint = time.monotonic()
         elif time.monotonic() - last_checkpoint > 60 * CHECKPOINT_MINUTES:
             checkpoint()
             last_checkpoint = time.monotonic()
     bar.close()
-    save_weights(out / "weights.pt", net, {**meta, "step": step})
+    save_weights(out / "weights.pt", net, {**meta, "step": step, **hours_spent()})
     print(f"wrote {out / 'weights.pt'} (step {step})")
 
 

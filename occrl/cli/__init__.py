@@ -167,6 +167,12 @@ def make_parser() -> argparse.ArgumentParser:
         "--weights", default=None, help="weights file in the run folder (default weights.pt, the latest; e.g. weights_warmstart.pt)"
     )
     x.add_argument("--dest", default=None, help="write into this folder instead of the package's pretrained/ (for trying it out)")
+    x.add_argument(
+        "--recipe-before",
+        default=None,
+        help="JSON file listing the training steps that made the run's starting network (each: what, command, frames, cpu_hours); "
+        "recorded in the card as recipe_before, with recipe_frames / recipe_cpu_hours totalled over them and the run",
+    )
     x.set_defaults(func=run_export)
 
     b = sub.add_parser("bench", help="run a speed benchmark from benchmarks/")

@@ -398,6 +398,39 @@ def network_of(method: str) -> str | None:
     return default_network(method)
 
 
+RECIPE_STEP_KEYS = {"what": str, "command": str, "frames": int, "cpu_hours": float}  # one earlier step of a model card's recipe
+
+
+def read_recipe_steps(path: Path) -> list[dict]:
+    """The earlier training steps of an exported network (``occrl export --recipe-before``): a JSON
+    list of objects with ``what`` and ``command`` (text), ``frames`` (environment frames, or null
+    for steps that collect none, such as an offline fit) and ``cpu_hours`` (or null where not
+    measured).
+
+    Raises:
+        ValueError: when the file is missing, not JSON, or a step lacks a key or has a wrong type.
+    """
+    try:
+        steps = json.loads(path.read_text())
+    except (OSError, json.JSONDecodeError) as error:
+        raise ValueError(f"cannot read a JSON list of steps ({error})") from None
+    if not isinstance(steps, list) or not steps:
+        raise ValueError(f"expected a non-empty JSON list of steps, each with {sorted(RECIPE_STEP_KEYS)}")
+    for i, step in enumerate(steps):
+        if not isinstance(step, dict) or set(step) != set(RECIPE_STEP_KEYS):
+            keys = sorted(step) if isinstance(step, dict) else type(step).__name__
+            raise ValueError(f"step {i} has {keys}; each step needs exactly {sorted(RECIPE_STEP_KEYS)}")
+        for key, kind in RECIPE_STEP_KEYS.items():
+            value = step[key]
+            number = kind in (int, float) and (
+                value is None or (isinstance(value, (int, float)) and not isinstance(value, bool) and value >= 0)
+            )
+            if not (number or (kind is str and isinstance(value, str) and value)):
+                allowed = "a non-empty string" if kind is str else "a number >= 0 or null"
+                raise ValueError(f"step {i}: {key} must be {allowed}, got {value!r}")
+    return steps
+
+
 def run_export(args: argparse.Namespace) -> int:
     """Ship a run's weights inside the package as a named pretrained network."""
     import shutil
@@ -416,6 +449,13 @@ def run_export(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return 2
+    recipe_before = None
+    if args.recipe_before:
+        try:
+            recipe_before = read_recipe_steps(Path(args.recipe_before))
+        except ValueError as error:
+            print(f"occrl export: error: --recipe-before {args.recipe_before}: {error}", file=sys.stderr)
+            return 2
     run = Path(args.run_dir)
     weights_path = run / (args.weights or "weights.pt")
     net = load_weights(weights_path)
@@ -452,6 +492,13 @@ def run_export(args: argparse.Namespace) -> int:
     if started_from:  # the run began from another network (--init-weights): its own training comes first
         card["init_weights"] = Path(started_from["path"]).name
         card["summary"] += f", started from {Path(started_from['path']).name}"
+    if recipe_before is not None:  # the training that made the starting network, ahead of this run
+        card["recipe_before"] = recipe_before
+        steps = [*recipe_before, {"frames": card["frames"], "cpu_hours": card["cpu_hours"]}]
+        card["recipe_frames"] = sum(step["frames"] or 0 for step in steps)
+        cpu = [step["cpu_hours"] for step in steps]
+        card["recipe_cpu_hours"] = None if None in cpu else round(sum(cpu), 2)
+        card["summary"] += f", after {len(recipe_before)} earlier steps (recipe_before)"
     dest = Path(args.dest) if args.dest else PRETRAINED_DIR
     dest.mkdir(parents=True, exist_ok=True)
     save_weights(dest / PRETRAINED_FILES[args.name], net, card)

@@ -59,3 +59,32 @@ def test_a_run_started_from_other_weights_names_them_in_its_card(tmp_path):
     assert main(["export", "--run-dir", str(run), "--name", "occnet-ei", "--preset", "tiny", "--dest", str(dest)]) == 0
     card = json.loads((dest / "model_cards.json").read_text())["occnet-ei"]
     assert card["init_weights"] == "start.pt" and card["summary"].endswith("started from start.pt")
+    # the steps that made start.pt go into the card ahead of the run, with totals over the whole recipe
+    recipe = tmp_path / "recipe.json"
+    steps = [
+        {"what": "data", "command": "occrl train --lr 0 ...", "frames": 1000, "cpu_hours": 0.5},
+        {"what": "offline fit", "command": "python scripts/offline_imitation.py ...", "frames": None, "cpu_hours": 0.25},
+    ]
+    recipe.write_text(json.dumps(steps))
+    export = ["export", "--run-dir", str(run), "--name", "occnet-ei", "--preset", "tiny", "--dest", str(dest)]
+    assert main([*export, "--recipe-before", str(recipe)]) == 0
+    card = json.loads((dest / "model_cards.json").read_text())["occnet-ei"]
+    assert card["recipe_before"] == steps and card["recipe_frames"] == 1000 + card["frames"]
+    assert card["recipe_cpu_hours"] == round(0.75 + card["cpu_hours"], 2) and "2 earlier steps" in card["summary"]
+    assert load_weights(dest / "occnet-ei.pt") is not None
+
+
+def test_a_bad_recipe_file_is_refused_with_what_a_step_needs_and_nothing_is_written(tmp_path, capsys):
+    dest = tmp_path / "shipped"
+    recipe = tmp_path / "recipe.json"
+    for content, message in (
+        ("not json", "cannot read a JSON list"),
+        ("[]", "non-empty JSON list"),
+        ('[{"what": "x", "command": "y", "frames": 1}]', "each step needs exactly ['command', 'cpu_hours', 'frames', 'what']"),
+        ('[{"what": "x", "command": "y", "frames": -1, "cpu_hours": null}]', "frames must be a number >= 0 or null, got -1"),
+    ):
+        recipe.write_text(content)
+        export = ["export", "--run-dir", str(tmp_path / "no-run"), "--name", "occnet-ei", "--preset", "tiny", "--dest", str(dest)]
+        assert main([*export, "--recipe-before", str(recipe)]) == 2
+        assert message in capsys.readouterr().err
+    assert not dest.exists()

@@ -40,7 +40,15 @@ def test_fit_lowers_the_validation_nll_and_resumes_exactly(tmp_path):
     rows = [json.loads(line) for line in (straight / "metrics.jsonl").read_text().splitlines()]
     assert [r["step"] for r in rows] == [0, 2, 4, 6]
     assert rows[-1]["validation_nll"] < rows[0]["validation_nll"]
-    assert (resumed / "metrics.jsonl").read_text() == (straight / "metrics.jsonl").read_text()
+    # the same fit either way; its cost (CPU and wall hours, totalled over the resume) is logged beside it
+    cost = ("cpu_hours", "wall_hours")
+    resumed_rows = [json.loads(line) for line in (resumed / "metrics.jsonl").read_text().splitlines()]
+    assert [{k: v for k, v in r.items() if k not in cost} for r in resumed_rows] == [
+        {k: v for k, v in r.items() if k not in cost} for r in rows
+    ]
+    assert all(0 < r["cpu_hours"] and 0 < r["wall_hours"] for r in rows[1:] + resumed_rows[1:])
+    assert resumed_rows[-1]["cpu_hours"] > resumed_rows[1]["cpu_hours"]  # the resumed fit adds to the first part's total
+    assert torch.load(straight / "weights.pt", weights_only=False)["meta"]["cpu_hours"] >= rows[-1]["cpu_hours"]
     a = torch.load(straight / "weights.pt", weights_only=False)["model"]
     b = torch.load(resumed / "weights.pt", weights_only=False)["model"]
     start = torch.load(data / "weights.pt", weights_only=False)["model"]
