@@ -77,3 +77,26 @@ def test_occnet_takeover_is_the_takeover_runs_iteration_75_and_its_card_names_th
     run_weights = Path(__file__).resolve().parents[1] / "checkpoints" / "retrieval-takeover50-seed0" / "weights_iteration75.pt"
     run = load_weights(run_weights).state_dict()
     assert shipped.keys() == run.keys() and all(torch.equal(shipped[k], run[k]) for k in run)
+
+
+@pytest.mark.parametrize(
+    ("name", "start", "run_weights"),
+    [
+        ("occnet-selfimit", "occnet-takeover", "selfimit-from-fit3k/weights_iteration80.pt"),
+    ],
+)
+def test_the_selfimit_networks_are_their_runs_iteration_80_and_their_cards_name_the_whole_recipe(name, start, run_weights):
+    from pathlib import Path
+
+    from occrl.modules.weights import load_weights
+
+    card = model_card(name)
+    assert card["iterations"] == 80 and card["frames"] == 128_000 and card["stage_reached"] == 2
+    assert card["settings_beyond_preset"]["imitation_teacher"] == "self" and card["settings_beyond_preset"]["label_episodes"] == "success"
+    data9, data10, fit = card["recipe_before"]  # the teacher's demonstrations (two seeds), then the offline fit from `start`
+    assert "--teacher-action-noise 0.05" in data9["command"] and "--seed 10" in data10["command"]
+    assert f"--init-weights {start}" in fit["command"] and fit["frames"] is None
+    assert card["recipe_frames"] == data9["frames"] + data10["frames"] + card["frames"] == 120_000 + 32_000 + 128_000
+    shipped = load_pretrained(name).state_dict()
+    run = load_weights(Path(__file__).resolve().parents[1] / "checkpoints" / run_weights).state_dict()
+    assert shipped.keys() == run.keys() and all(torch.equal(shipped[k], run[k]) for k in run)

@@ -12,6 +12,9 @@ and Stochastic baselines). Each default name stands for one shipped network
 - ``"occnet-noheatmap-takeover"`` (``occnet-noheatmap`` since 0.3.0): ``occnet-noheatmap-warmstart``
   trained by the same recipe minus the heat-map: the same planner (on ``occnet-takeover``, fixed:
   ``teacher_weights``) and retriever act, the net learns from their episodes;
+- ``"occnet-selfimit"``: ``occnet-takeover`` fitted offline to the clearing-observed teacher's
+  disturbed demonstrations on stage 2 (hierarchical search, action noise 0.05; 3,000 gradient
+  steps), then 80 iterations of imitating its own successful stage-2 episodes;
 - ``"occnet-warmstart"``, ``"occnet-noheatmap-warmstart"`` (``occnet`` / ``occnet-noheatmap`` up
   to 0.2.x): DAgger on the privileged scripted retriever, stage 1;
 - ``"occnet-ei"``: ``occnet-warmstart`` after expert iteration on stage 2.
@@ -40,6 +43,7 @@ __all__ = [
 
 PRETRAINED_DIR = Path(__file__).resolve().parent  # where the shipped weights and model_cards.json live
 PRETRAINED_FILES = {  # shipped network -> weights file in PRETRAINED_DIR
+    "occnet-selfimit": "occnet-selfimit.pt",
     "occnet-takeover": "occnet-takeover.pt",
     "occnet-noheatmap-takeover": "occnet-noheatmap-takeover.pt",
     "occnet-warmstart": "occnet-warmstart.pt",
@@ -119,7 +123,7 @@ def pretrained_path(name: str) -> Path:
         >>> pretrained_path("occnet-v9")
         Traceback (most recent call last):
             ...
-        ValueError: unknown pretrained network 'occnet-v9'; known: ['occnet', 'occnet-ei', 'occnet-noheatmap', 'occnet-noheatmap-takeover', 'occnet-noheatmap-warmstart', 'occnet-takeover', 'occnet-warmstart']
+        ValueError: unknown pretrained network 'occnet-v9'; known: ['occnet', 'occnet-ei', 'occnet-noheatmap', 'occnet-noheatmap-takeover', 'occnet-noheatmap-warmstart', 'occnet-selfimit', 'occnet-takeover', 'occnet-warmstart']
     """
     if network_name(name) not in PRETRAINED_FILES:
         raise ValueError(f"unknown pretrained network {name!r}; known: {sorted(PRETRAINED_FILES | DEFAULT_NETWORKS)}")

@@ -308,7 +308,7 @@ def test_clearing_observed_teacher_after_the_learners_roll_in(tmp_path):
     labels; other teachers refuse the setting."""
     tr, data = _clearing_teacher_collection(
         tmp_path,
-        weights_file("occnet"),
+        weights_file("occnet-takeover"),  # a named network: its episodes, and so the roll-ins drawn in them, stay these
         teacher_search="hierarchical",
         teacher_roll_in=6,
         imitation_beta_min=1.0,
