@@ -193,6 +193,7 @@ REPLICATES = {
         [
             "results/offline-imitation/selfimit-from-fit3k/hybrid-4x4_s2_iteration80.json",
             "results/offline-imitation/selfimit-from-fit3k/hybrid-4x4_s2_iteration80_replicate1.json",
+            "results/offline-imitation/selfimit-from-fit3k/hybrid-4x4_s2_iteration80_replicate2.json",
         ],
     ),
     "PPO, value off the trunk 225": (
@@ -375,7 +376,8 @@ def plot(rows: list[tuple[Network, dict, dict]], out: Path) -> None:
         ax.errorbar(x, y, xerr=[[x - xlo], [xhi - x]], yerr=[[y - ylo], [yhi - y]], fmt="o", color="tab:blue", ms=4, lw=0.6, alpha=0.8)
     for label, colour in zip(REPLICATES, ["tab:orange", "tab:purple", "tab:brown", "tab:olive"]):
         own, planner = replicates(label)
-        xs_, ys_ = [100 * d["success_rate"] for d in own], [100 * d["success_rate"] for d in planner]
+        pairs = min(len(own), len(planner))  # replicate i of both (a network may have more of one)
+        xs_, ys_ = [100 * d["success_rate"] for d in own[:pairs]], [100 * d["success_rate"] for d in planner[:pairs]]
         ax.plot(
             xs_,
             ys_,
@@ -383,7 +385,7 @@ def plot(rows: list[tuple[Network, dict, dict]], out: Path) -> None:
             color=colour,
             ms=5,
             mfc="none",
-            label=f"{label}, replicates 0-{len(planner) - 1} (own policy i with planner i)",
+            label=f"{label}, replicates 0-{pairs - 1} (own policy i with planner i)",
         )
     s = summary(rows)
     xs = np.linspace(30, 100, 2)

@@ -28,7 +28,7 @@ def test_every_shipped_network_loads_and_has_its_card(name):
 
 
 def test_default_names_stand_for_shipped_networks():
-    assert DEFAULT_NETWORKS == {"occnet": "occnet-takeover", "occnet-noheatmap": "occnet-noheatmap-takeover"}
+    assert DEFAULT_NETWORKS == {"occnet": "occnet-selfimit", "occnet-noheatmap": "occnet-noheatmap-selfimit"}
     for default, net in DEFAULT_NETWORKS.items():
         assert default in available() and pretrained_path(default) == pretrained_path(net)
         assert model_card(default) == model_card(net)
@@ -83,6 +83,7 @@ def test_occnet_takeover_is_the_takeover_runs_iteration_75_and_its_card_names_th
     ("name", "start", "run_weights"),
     [
         ("occnet-selfimit", "occnet-takeover", "selfimit-from-fit3k/weights_iteration80.pt"),
+        ("occnet-noheatmap-selfimit", "occnet-noheatmap-takeover", "selfimit-noheatmap/weights_iteration80.pt"),
     ],
 )
 def test_the_selfimit_networks_are_their_runs_iteration_80_and_their_cards_name_the_whole_recipe(name, start, run_weights):

@@ -165,7 +165,7 @@ def method_network(name: str, weights: str | Path | None = None) -> tuple[str | 
         >>> from occrl.eval.methods import method_network
         >>> from occrl.pretrained import pretrained_path
         >>> method_network("hybrid-4x4")[0], method_network("greedy", str(pretrained_path("occnet-ei")))[0]
-        ('occnet-takeover', 'occnet-ei')
+        ('occnet-selfimit', 'occnet-ei')
         >>> method_network("scripted")
         (None, None)
     """
@@ -212,7 +212,7 @@ def make_method(
         >>> from occrl.eval.methods import make_method
         >>> m = make_method("hybrid-2x2")  # loads the shipped net
         >>> type(m.policy).__name__, (m.policy.m, m.policy.h), len(m.primers), m.network
-        ('HybridPlanner', (2, 2), 1, 'occnet-takeover')
+        ('HybridPlanner', (2, 2), 1, 'occnet-selfimit')
         >>> make_method("random")  # doctest: +ELLIPSIS
         Traceback (most recent call last):
             ...

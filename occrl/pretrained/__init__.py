@@ -5,16 +5,18 @@ the Stochastic-gen baseline), ``"occnet-noheatmap"`` the default net without hea
 and Stochastic baselines). Each default name stands for one shipped network
 (:data:`DEFAULT_NETWORKS`); every network keeps its own name:
 
-- ``"occnet-takeover"`` (``occnet`` since occrl 0.3.0): ``occnet-warmstart`` after 75 iterations of
-  the hybrid planner acting on stage 2 with the scripted retriever taking over half of the
-  retrievals (``retrieval_takeover=0.5``); the best network so far for the hybrid planner and its
-  own policy on stages 2 and 3;
-- ``"occnet-noheatmap-takeover"`` (``occnet-noheatmap`` since 0.3.0): ``occnet-noheatmap-warmstart``
+- ``"occnet-selfimit"`` (``occnet`` since occrl 0.3.0): ``occnet-takeover`` fitted offline to the
+  clearing-observed teacher's disturbed demonstrations on stage 2 (hierarchical search, action
+  noise 0.05; 3,000 gradient steps), then 80 iterations of imitating its own successful stage-2
+  episodes; the best network so far for the hybrid planner and its own policy on every stage;
+- ``"occnet-noheatmap-selfimit"`` (``occnet-noheatmap`` since 0.3.0): ``occnet-noheatmap-takeover``
+  trained by the same recipe minus the heat-map (the same demonstrations, fit and self-imitation);
+- ``"occnet-takeover"`` (``occnet`` from 2026-12-03 to 2026-12-05): ``occnet-warmstart`` after 75
+  iterations of the hybrid planner acting on stage 2 with the scripted retriever taking over half
+  of the retrievals (``retrieval_takeover=0.5``);
+- ``"occnet-noheatmap-takeover"`` (``occnet-noheatmap`` then): ``occnet-noheatmap-warmstart``
   trained by the same recipe minus the heat-map: the same planner (on ``occnet-takeover``, fixed:
   ``teacher_weights``) and retriever act, the net learns from their episodes;
-- ``"occnet-selfimit"``: ``occnet-takeover`` fitted offline to the clearing-observed teacher's
-  disturbed demonstrations on stage 2 (hierarchical search, action noise 0.05; 3,000 gradient
-  steps), then 80 iterations of imitating its own successful stage-2 episodes;
 - ``"occnet-warmstart"``, ``"occnet-noheatmap-warmstart"`` (``occnet`` / ``occnet-noheatmap`` up
   to 0.2.x): DAgger on the privileged scripted retriever, stage 1;
 - ``"occnet-ei"``: ``occnet-warmstart`` after expert iteration on stage 2.
@@ -44,6 +46,7 @@ __all__ = [
 PRETRAINED_DIR = Path(__file__).resolve().parent  # where the shipped weights and model_cards.json live
 PRETRAINED_FILES = {  # shipped network -> weights file in PRETRAINED_DIR
     "occnet-selfimit": "occnet-selfimit.pt",
+    "occnet-noheatmap-selfimit": "occnet-noheatmap-selfimit.pt",
     "occnet-takeover": "occnet-takeover.pt",
     "occnet-noheatmap-takeover": "occnet-noheatmap-takeover.pt",
     "occnet-warmstart": "occnet-warmstart.pt",
@@ -51,8 +54,8 @@ PRETRAINED_FILES = {  # shipped network -> weights file in PRETRAINED_DIR
     "occnet-ei": "occnet-ei.pt",
 }
 DEFAULT_NETWORKS = {  # default name -> the shipped network it stands for (the planners' and baselines' defaults)
-    "occnet": "occnet-takeover",
-    "occnet-noheatmap": "occnet-noheatmap-takeover",
+    "occnet": "occnet-selfimit",
+    "occnet-noheatmap": "occnet-noheatmap-selfimit",
 }
 
 
@@ -62,7 +65,7 @@ def network_name(name: str) -> str:
     Examples:
         >>> from occrl.pretrained import network_name
         >>> network_name("occnet"), network_name("occnet-ei")
-        ('occnet-takeover', 'occnet-ei')
+        ('occnet-selfimit', 'occnet-ei')
     """
     return DEFAULT_NETWORKS.get(name, name)
 
@@ -119,11 +122,11 @@ def pretrained_path(name: str) -> Path:
     Examples:
         >>> from occrl.pretrained import pretrained_path
         >>> pretrained_path("occnet").name
-        'occnet-takeover.pt'
+        'occnet-selfimit.pt'
         >>> pretrained_path("occnet-v9")
         Traceback (most recent call last):
             ...
-        ValueError: unknown pretrained network 'occnet-v9'; known: ['occnet', 'occnet-ei', 'occnet-noheatmap', 'occnet-noheatmap-takeover', 'occnet-noheatmap-warmstart', 'occnet-selfimit', 'occnet-takeover', 'occnet-warmstart']
+        ValueError: unknown pretrained network 'occnet-v9'; known: ['occnet', 'occnet-ei', 'occnet-noheatmap', 'occnet-noheatmap-selfimit', 'occnet-noheatmap-takeover', 'occnet-noheatmap-warmstart', 'occnet-selfimit', 'occnet-takeover', 'occnet-warmstart']
     """
     if network_name(name) not in PRETRAINED_FILES:
         raise ValueError(f"unknown pretrained network {name!r}; known: {sorted(PRETRAINED_FILES | DEFAULT_NETWORKS)}")

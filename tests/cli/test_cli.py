@@ -21,7 +21,7 @@ def test_eval_runs_any_hybrid_mxh(tmp_path, capsys):
     out = tmp_path / "r.json"
     assert main(["eval", "--method", "hybrid-1x1", "--tasks", "2", "--batch", "2", "--out", str(out), "--no-progress"]) == 0
     data = json.loads(out.read_text())
-    assert (data["method"], data["tasks"], data["batch"], data["network"]) == ("hybrid-1x1", 2, 1, "occnet-takeover")
+    assert (data["method"], data["tasks"], data["batch"], data["network"]) == ("hybrid-1x1", 2, 1, "occnet-selfimit")
     assert main(["eval", "--method", "hybrid-0x4", "--tasks", "1"]) == 2
     assert "any hybrid-MxH" in capsys.readouterr().err
 

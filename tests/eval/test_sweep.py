@@ -129,9 +129,9 @@ def test_a_point_records_its_network_and_is_never_extended_with_another(tmp_path
     values = {"clutter": [1.0]}
     out = run_sweep(["greedy"], tmp_path, tasks=1, first_seed=900, sweeps=("clutter",), values=values, films=False, progress=False)
     point = json.loads((out / "points" / "greedy__clutter__1.json").read_text())
-    assert (point["network"], point["network_sha256"]) == method_network("greedy") and point["network"] == "occnet-noheatmap-takeover"
+    assert (point["network"], point["network_sha256"]) == method_network("greedy") and point["network"] == "occnet-noheatmap-selfimit"
     warm = str(pretrained_path("occnet-noheatmap-warmstart"))
-    with pytest.raises(ValueError, match="holds episodes of the network 'occnet-noheatmap-takeover'.*use another --out folder"):
+    with pytest.raises(ValueError, match="holds episodes of the network 'occnet-noheatmap-selfimit'.*use another --out folder"):
         run_sweep(["greedy"], tmp_path, tasks=2, first_seed=900, sweeps=("clutter",), values=values, weights=warm, progress=False)
     assert len(json.loads((out / "points" / "greedy__clutter__1.json").read_text())["episodes"]) == 1  # left as it was
     # the same network (its weights file, as occrl eval passes it) extends the point
@@ -142,7 +142,7 @@ def test_a_point_records_its_network_and_is_never_extended_with_another(tmp_path
         first_seed=900,
         sweeps=("clutter",),
         values=values,
-        weights=str(pretrained_path("occnet-noheatmap-takeover")),
+        weights=str(pretrained_path("occnet-noheatmap-selfimit")),
         progress=False,
     )
     assert len(json.loads((out / "points" / "greedy__clutter__1.json").read_text())["episodes"]) == 2
