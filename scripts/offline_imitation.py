@@ -113,6 +113,10 @@ class Args:
     """Sequences per gradient step (0: the data run's minibatch_envs)."""
     lr: float = 0.0
     """Learning rate (0: the data run's, unless that was 0, then 3e-4)."""
+    heatmap_coeff: float = -1.0
+    """Weight of the heat-map loss (the BCE against the privileged target map the data run
+    stored); -1: the data run's (0 in the data runs above, which ran with --heatmap-coeff 0). Only
+    a network with a heat-map head has the term."""
     save_every: int = 2000
     """Write weights_step<N>.pt every this many steps."""
     log_every: int = 200
@@ -155,6 +159,8 @@ def parse_args(argv: list[str] | None = None) -> Args:
     args = Args(**vars(parser.parse_args(argv)))
     if args.steps < 1 or args.save_every < 1 or args.log_every < 1 or args.minibatch < 0 or args.lr < 0 or args.first_iterations < 0:
         parser.error(f"--steps, --save-every and --log-every must be >= 1, --minibatch, --lr and --first-iterations >= 0; got {args}")
+    if args.heatmap_coeff < 0 and args.heatmap_coeff != -1.0:
+        parser.error(f"--heatmap-coeff must be >= 0, or -1 for the data run's setting; got {args.heatmap_coeff}")
     if not args.out and not args.assess and not args.summary and not args.takeover:
         parser.error("--out is needed (the fit's run folder) unless --assess, --summary or --takeover is given")
     if not 0.0 < args.validation_fraction < 1.0:
@@ -393,6 +399,8 @@ def main(argv: list[str] | None = None) -> None:
         print(takeover_table(data))
         return
     overrides = {"minibatch_envs": args.minibatch or config.minibatch_envs, "lr": args.lr or config.lr or 3e-4}
+    if args.heatmap_coeff >= 0:
+        overrides["heatmap_coeff"] = args.heatmap_coeff
     config = dataclasses.replace(config, **overrides)
     if args.assess:
         print("| network | forward (mm) | lateral (mm) | rotation (deg) | close agreement | where the teacher closes |")
@@ -421,7 +429,10 @@ def main(argv: list[str] | None = None) -> None:
     spent = {"cpu_seconds": 0.0, "wall_seconds": 0.0}  # of the gradient steps and their logging, over every resume
     if (out / CHECKPOINT).exists():
         obj = load_checkpoint(out / CHECKPOINT, net, learner.optimizer)
-        if {k: v for k, v in obj["state"]["settings"].items() if k not in NOT_SETTINGS} != settings:
+        saved = {k: v for k, v in obj["state"]["settings"].items() if k not in NOT_SETTINGS}
+        defaults = {f.name: f.default for f in dataclasses.fields(Args)}
+        # a setting added since the checkpoint was written matches it while it keeps its default
+        if saved != {k: v for k, v in settings.items() if k in saved or v != defaults.get(k)}:
             raise ValueError(f"{out / CHECKPOINT} was written with other settings ({obj['state']['settings']}); use another --out")
         step = obj["state"]["step"]
         generator.set_state(obj["state"]["generator"])

@@ -157,3 +157,26 @@ def test_takeover_table_counts_each_demonstration_by_the_teachers_first_frame():
     assert lines[2] == "| 0 | 1 | 0.0 % | +0.50 |"
     assert lines[3] == "| 6-10 | 1 | 66.7 % | -0.50 |"
     assert len(lines) == 5 and lines[4].startswith("(0 labelled episodes began before")
+
+
+def test_heatmap_coeff_trains_the_heatmap_head_on_the_stored_targets_and_old_fits_resume(tmp_path):
+    data = tmp_path / "data"
+    _data_run(data, 10, "--heatmap-coeff", "0")  # as the demonstrations' data runs: no heat-map term
+    start = torch.load(data / "weights.pt", weights_only=False)["model"]
+    fit = ["scripts/offline_imitation.py", "--data", str(data), "--init-weights", str(data / "weights.pt"), "--steps", "2"]
+    fit += ["--save-every", "2", "--log-every", "2"]
+    _run(*fit, "--out", str(tmp_path / "off"))
+    _run(*fit, "--heatmap-coeff", "1", "--out", str(tmp_path / "on"))
+    off = torch.load(tmp_path / "off" / "weights.pt", weights_only=False)["model"]
+    on = torch.load(tmp_path / "on" / "weights.pt", weights_only=False)["model"]
+    head = [k for k in start if k.startswith("heatmap_head.")]  # the head proper ("heatmap." includes the shared trunk)
+    assert head and all(torch.equal(off[k], start[k]) for k in head)  # the data run's 0: the head untouched
+    assert not all(torch.equal(on[k], start[k]) for k in head)  # the stored target maps train it
+    bad = _run(*fit, "--heatmap-coeff", "-0.5", "--out", str(tmp_path / "bad"), check=False)
+    assert bad.returncode != 0 and "--heatmap-coeff must be >= 0, or -1" in bad.stderr
+    # a fit checkpointed before the setting existed resumes while the setting keeps its default
+    checkpoint = torch.load(tmp_path / "off" / "checkpoint.pt", weights_only=False)
+    del checkpoint["state"]["settings"]["heatmap_coeff"]
+    torch.save(checkpoint, tmp_path / "off" / "checkpoint.pt")
+    assert "resumed" in _run(*fit[:-4], "--steps", "3", "--save-every", "3", "--log-every", "3", "--out", str(tmp_path / "off")).stdout
+    assert _run(*fit, "--heatmap-coeff", "1", "--steps", "3", "--out", str(tmp_path / "off"), check=False).returncode != 0
