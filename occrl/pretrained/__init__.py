@@ -8,7 +8,8 @@ and Stochastic baselines). Each default name stands for one shipped network
 - ``"occnet-selfimit"`` (``occnet`` since occrl 0.3.0): ``occnet-takeover`` fitted offline to the
   clearing-observed teacher's disturbed demonstrations on stage 2 (hierarchical search, action
   noise 0.05; 3,000 gradient steps), then 80 iterations of imitating its own successful stage-2
-  episodes; the best network so far for the hybrid planner and its own policy on every stage;
+  episodes; the best network so far for its own policy on every stage and for the hybrid planner
+  on stages 2 and 3 (level on stage 1);
 - ``"occnet-noheatmap-selfimit"`` (``occnet-noheatmap`` since 0.3.0): ``occnet-noheatmap-takeover``
   trained by the same recipe minus the heat-map (the same demonstrations, fit and self-imitation);
 - ``"occnet-takeover"`` (``occnet`` from 2026-12-03 to 2026-12-05): ``occnet-warmstart`` after 75
