@@ -116,8 +116,24 @@ def test_handover_pairs_its_episodes_with_the_planners_own(tmp_path):
 
 def test_handover_from_the_networks_own_policy_keeps_its_episodes_until_the_hand_over(tmp_path):
     baseline = tmp_path / "own.json"
-    _run("-m", "occrl.cli", "eval", "--method", "stochastic-gen", "--stage", "2", "--tasks", "12", "--workers", "1", "--out", str(baseline))
-    out = _run("scripts/handover.py", "--from", "stochastic-gen", "--stage", "2", "--tasks", "12", "--baseline", str(baseline))
+    net = ("--weights", "occnet-takeover")  # a named network: on these 12 tasks its policy never detects the target in 2
+    _run(
+        "-m",
+        "occrl.cli",
+        "eval",
+        "--method",
+        "stochastic-gen",
+        "--stage",
+        "2",
+        "--tasks",
+        "12",
+        "--workers",
+        "1",
+        *net,
+        "--out",
+        str(baseline),
+    )
+    out = _run("scripts/handover.py", "--from", "stochastic-gen", "--stage", "2", "--tasks", "12", *net, "--baseline", str(baseline))
     assert "stochastic-gen -> scripted at the first detection, stage 2" in out
     # the tasks whose target the policy never detects (2 of these 12) are the evaluation's episodes, step for step
     never = re.search(r"tasks never handed over: (\d+), of them equal to the planner's own episode: (\d+)", out)
