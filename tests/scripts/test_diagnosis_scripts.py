@@ -292,7 +292,7 @@ def test_timing_table_splits_each_task_into_planning_and_execution(tmp_path):
         "--tasks",
         "1",
         "--sweep",
-        "results/sweep-v3",
+        "results/sweep-v4",  # the default networks' sweep
         "--out",
         str(out),
     )
