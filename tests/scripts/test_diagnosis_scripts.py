@@ -511,3 +511,23 @@ def test_start_scene_pool_writes_target_hidden_tasks_the_trainer_can_read(tmp_pa
         cwd=ROOT,
     )
     assert bad.returncode == 2 and "apply to --kind handover" in bad.stderr
+
+
+def test_policy_samples_groups_tasks_by_the_policys_replicates(tmp_path):
+    p0 = _result(tmp_path / "p0.json", "stochastic-gen", 2, [True, False, False, False])
+    p1 = _result(tmp_path / "p1.json", "stochastic-gen", 2, [True, True, False, False])
+    h = _result(tmp_path / "h.json", "hybrid-4x4", 2, [True, True, True, False])
+    out = _run("scripts/policy_samples.py", "--policy", str(p0), str(p1), "--planner", str(h), "--out", str(tmp_path / "s.json"))
+    assert "| 0 of 2 | 2 | 0.0 % | 50.0 % |" in out  # the planner solves one of the two tasks the policy never solved
+    assert "| 1 of 2 | 1 | 50.0 % | 100.0 % |" in out and "| 2 of 2 | 1 | 100.0 % | 100.0 % |" in out
+    result = json.loads((tmp_path / "s.json").read_text())
+    # one replicate solves 3 of 8 task-replicates on average; either of the two, 2 of the 4 tasks
+    assert result["union_curve"] == [0.375, 0.5] and result["worth_in_samples"]["planner"] is None
+    other = _result(tmp_path / "o.json", "hybrid-4x4", 3, [True, True, True, False])
+    bad = subprocess.run(
+        [sys.executable, "scripts/policy_samples.py", "--policy", str(p0), "--planner", str(other)],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+    )
+    assert bad.returncode == 2 and "settings" in bad.stderr
