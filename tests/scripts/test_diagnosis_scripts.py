@@ -229,7 +229,7 @@ def test_oracle_roots_plan_in_a_world_that_steps_as_the_real_one():
         sys.path.remove(str(ROOT / "scripts"))
     from occrl.envs.episodes import seeded_task_env, task_scenes
     from occrl.modules import make_occnet
-    from occrl.planners import make_world, recreate
+    from occrl.planners import HybridPlanner, make_world, recreate
 
     net = make_occnet("paper").eval()
     planner = OracleRootsPlanner(net, "state", m=2, h=2)
@@ -262,6 +262,16 @@ def test_oracle_roots_plan_in_a_world_that_steps_as_the_real_one():
     assert end.h == 3 and decision.result.paths.shape[2] == 4
     ends = np.isfinite(decision.result.paths[..., 1:, 0]).sum(-1)  # steps each roll-out took
     assert np.allclose(decision.result.returns[ends == 3], -(1 + C.GAMMA + C.GAMMA**2))  # three -1 rewards, no value
+    # its own roots: the plain planner's, no privileged key read
+    own = OracleRootsPlanner(net, "own", m=2, h=2)
+    heatmap = np.random.default_rng(0).random((64, 64))
+    assert "privileged" not in own.in_keys and "privileged" in planner.in_keys
+    plain = HybridPlanner(net, m=2, h=2).roots(td[0], heatmap)
+
+    def described(roots):
+        return [(r.weight, r.peak_pixel, len(r.state.objects), r.state.gripper_pose, r.state.target_detected) for r in roots]
+
+    assert described(own.roots(td[0], heatmap)) == described(plain) and len(plain) >= 1
     with pytest.raises(ValueError, match="which must be"):
         OracleRootsPlanner(net, "heatmap")
 
