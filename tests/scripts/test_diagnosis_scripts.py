@@ -541,3 +541,39 @@ def test_policy_samples_groups_tasks_by_the_policys_replicates(tmp_path):
         cwd=ROOT,
     )
     assert bad.returncode == 2 and "settings" in bad.stderr
+
+
+def test_averaged_rollouts_score_each_first_action_by_the_mean_of_its_continuations():
+    import numpy as np
+    import torch
+
+    sys.path.insert(0, str(ROOT / "scripts"))
+    try:
+        from averaged_rollouts import AveragedRolloutsPlanner
+    finally:
+        sys.path.remove(str(ROOT / "scripts"))
+    from occrl.modules import make_occnet
+    from occrl.planners import RecreatedState, Root, rhp_batched, with_target
+    from occrl.planners.rhp import noise_dim
+
+    net = make_occnet("paper").eval()
+    box = np.array([[-0.02, -0.02], [0.02, -0.02], [0.02, 0.02], [-0.02, 0.02]])
+    state = RecreatedState((), (0.0, -0.1, 0.0), 0.085, False, target_type=1, target_vertices=box)
+    roots = [Root(with_target(state, (-0.1, 0.2, 0.0)), 0.5), Root(with_target(state, (0.1, 0.2, 0.0)), 0.5)]
+    hidden = (torch.zeros(1, 1, 128), torch.zeros(1, 1, 128))
+    planner = AveragedRolloutsPlanner(net, k=3, m=2, h=3, seed=5)
+    result = planner.rollouts(roots, hidden)
+    # the same draws, rolled out by the paper's RHP: 2 x 3 roll-outs per root
+    generator = torch.Generator().manual_seed(5)
+    first = torch.randn(2, 2, 1, 1, noise_dim(net), generator=generator)
+    noise = torch.randn(2, 2, 3, 3, noise_dim(net), generator=generator)
+    noise[:, :, :, :1] = first.expand(2, 2, 3, 1, noise_dim(net))
+    raw = rhp_batched(net, [r.state for r in roots], hidden, noise.reshape(2, 6, 3, noise_dim(net)))
+    firsts = raw.first_actions.reshape(2, 2, 3, 4)
+    assert np.array_equal(firsts, np.repeat(firsts[:, :, :1], 3, axis=2))  # one first action per group
+    means = raw.returns.reshape(2, 2, 3).mean(axis=2)
+    assert np.allclose(result.returns, means) and np.allclose(result.value, means.max(axis=1))
+    assert np.array_equal(result.action, firsts[np.arange(2), means.argmax(axis=1), 0])
+    assert len(np.unique(raw.returns.round(9))) > 2  # the continuations differ
+    with pytest.raises(ValueError, match="k must be"):
+        AveragedRolloutsPlanner(net, k=0)
