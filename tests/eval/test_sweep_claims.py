@@ -101,3 +101,25 @@ def test_methods_on_the_same_tasks_are_compared_by_mcnemar_on_the_sweeps_episode
     # without the episodes the pooled intervals decide: 80 % and 60 % of 100 tasks separate
     (tmp_path / "points" / "hybrid-2x2__clutter__1.json").unlink()
     assert _spread(tmp_path, rows)["larger m x h helps"].startswith("4x4 against 2x2: beyond the spread (pooled 95 % intervals")
+
+
+def test_means_of_points_extended_to_different_task_counts_use_the_tasks_all_ran(tmp_path):
+    # hybrid-4x4's point holds 150 tasks (its first 100 with 80 solved, all of the 50 added),
+    # 2x2's and 6x6's the first 100: the m x h means compare the 100 tasks all three ran
+    (tmp_path / "points").mkdir()
+    runs = {
+        "hybrid-4x4": (150, set(range(80)) | set(range(100, 150))),
+        "hybrid-2x2": (100, set(range(60))),
+        "hybrid-6x6": (100, set(range(90))),
+    }
+    rows = []
+    for method, (tasks, wins) in runs.items():
+        episodes = [{"seed": s, "objects": 1, "success": s in wins, "dropped": False, "actions": 9, "seconds": 0.1} for s in range(tasks)]
+        point = {"method": method, "sweep": "clutter", "value": 1.0, "episodes": episodes}
+        (tmp_path / "points" / f"{method}__clutter__1.json").write_text(json.dumps(point))
+        rows.append(_row(method, "clutter", 1.0, len(wins) / tasks) | {"tasks": tasks, "successes": len(wins)})
+    path = tmp_path / "results.json"
+    path.write_text(json.dumps(rows))
+    out = subprocess.run([sys.executable, str(SCRIPT), str(path)], capture_output=True, text=True, check=True).stdout
+    (figures,) = [line.split(" | ")[1] for line in out.splitlines() if line.startswith("| larger m x h helps")]
+    assert figures == "hybrid-2x2 60.0 %, hybrid-4x4 80.0 %, hybrid-6x6 90.0 % (mean over the points and tasks all three ran)"
