@@ -21,22 +21,18 @@ success of both, the tasks only one solved and the exact McNemar p-value.
 from __future__ import annotations
 
 import argparse
-import json
 import os
-import time
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np
 import torch
-from tqdm import tqdm
 
-from occrl.envs.episodes import task_scenes
 from occrl.eval.methods import make_method
-from occrl.eval.runner import EVAL_SEED_BASE, paired_with, summarize
 from occrl.planners import HybridPlanner, Root
 from occrl.planners.rhp import RHPResult, noise_dim, rhp_batched, rhp_sequential
 from occrl.pretrained import network_name, weights_file
+from oracle_roots import report_planner_run  # scripts/, beside this one
 
 
 class AveragedRolloutsPlanner(HybridPlanner):
@@ -85,30 +81,9 @@ def main() -> None:
         planner = AveragedRolloutsPlanner(method.policy.net, args.k, m=args.m, h=args.h)
     except ValueError as error:
         parser.error(str(error))
-    seeds = list(range(EVAL_SEED_BASE, EVAL_SEED_BASE + args.tasks))
     name = f"hybrid {args.m}x{args.h}, each first action's {args.k} continuations averaged"
-    t0 = time.time()
-    results = []
-    for seed in tqdm(seeds, desc=name, unit="task"):  # one world per task, as `occrl eval` runs the planners
-        results += method.run_episodes(task_scenes(args.stage, [seed]), [seed], batch_size=1, policy=planner)
-    summary = summarize(results)
-    lo, hi = summary["success_ci95"]
-    print(
-        f"{name}, stage {args.stage}: {100 * summary['success_rate']:.1f} % "
-        f"({100 * lo:.1f}-{100 * hi:.1f}) of {len(results)} tasks, {summary['dropped']} dropped; {time.time() - t0:.0f} s"
-    )
-    report = {"stage": args.stage, "m": args.m, "k": args.k, "h": args.h, "weights": network_name(args.weights or "occnet"), **summary}
-    report["episodes"] = [r.to_dict() for r in results]
-    if args.baseline:
-        pair = paired_with(report["episodes"], json.loads(open(args.baseline).read())["episodes"])
-        print(
-            f"the baseline on the same {pair['tasks']} tasks: {100 * pair['baseline_success_rate']:.1f} %; solved only by this "
-            f"planner: {pair['only_run']}, only by the baseline: {pair['only_baseline']} (McNemar p = {pair['p']:.3f})"
-        )
-        report["baseline"] = {"file": args.baseline, **pair}
-    if args.out:
-        with open(args.out, "w") as f:
-            json.dump(report, f, indent=1)
+    settings = {"stage": args.stage, "m": args.m, "k": args.k, "h": args.h, "weights": network_name(args.weights or "occnet")}
+    report_planner_run(method, planner, name, args.stage, args.tasks, settings, args.baseline, args.out)
 
 
 if __name__ == "__main__":

@@ -126,39 +126,42 @@ def main() -> None:
     torch.set_num_threads(1)
     method = make_method("hybrid-4x4", weights_file(args.weights))
     planner = OracleRootsPlanner(method.policy.net, args.roots, args.to_the_end, m=4, h=4)
-    seeds = list(range(EVAL_SEED_BASE, EVAL_SEED_BASE + args.tasks))
-    t0 = time.time()
-    results = []
-    # one world per task, as `occrl eval` runs the planners
     name = f"hybrid {'4 roll-outs to the end' if args.to_the_end else '4x4'} from " + (
         "its own roots" if args.roots == "own" else f"the true {args.roots}"
     )
+    settings = {"stage": args.stage, "roots": args.roots, "to_the_end": args.to_the_end, "weights": network_name(args.weights or "occnet")}
+    report_planner_run(method, planner, name, args.stage, args.tasks, settings, args.baseline, args.out)
+
+
+def report_planner_run(method, planner, name: str, stage: int, tasks: int, settings: dict, baseline: str | None, out: str | None) -> dict:
+    """Run ``planner`` (in ``method``'s env settings) on the first ``tasks`` held-out tasks of
+    ``stage``, one world per task as `occrl eval` runs the planners, print its success (and, with
+    ``baseline``, an `occrl eval --out` file, the tasks only one of them solved and the exact
+    McNemar p), and write ``settings``, the summary and the episodes to ``out``."""
+    seeds = list(range(EVAL_SEED_BASE, EVAL_SEED_BASE + tasks))
+    t0 = time.time()
+    results = []
     for seed in tqdm(seeds, desc=name, unit="task"):
-        results += method.run_episodes(task_scenes(args.stage, [seed]), [seed], batch_size=1, policy=planner)
+        results += method.run_episodes(task_scenes(stage, [seed]), [seed], batch_size=1, policy=planner)
     summary = summarize(results)
     lo, hi = summary["success_ci95"]
     print(
-        f"{name}, stage {args.stage}: {100 * summary['success_rate']:.1f} % "
+        f"{name}, stage {stage}: {100 * summary['success_rate']:.1f} % "
         f"({100 * lo:.1f}-{100 * hi:.1f}) of {len(results)} tasks, {summary['dropped']} dropped; {time.time() - t0:.0f} s"
     )
-    report = {
-        "stage": args.stage,
-        "roots": args.roots,
-        "to_the_end": args.to_the_end,
-        "weights": network_name(args.weights or "occnet"),
-        **summary,
-    }
+    report = {**settings, **summary}
     report["episodes"] = [r.to_dict() for r in results]
-    if args.baseline:
-        pair = paired_with(report["episodes"], json.loads(open(args.baseline).read())["episodes"])
+    if baseline:
+        pair = paired_with(report["episodes"], json.loads(open(baseline).read())["episodes"])
         print(
-            f"the baseline (hybrid 4x4 as evaluated) on the same {pair['tasks']} tasks: {100 * pair['baseline_success_rate']:.1f} %; solved only "
+            f"the baseline ({baseline}) on the same {pair['tasks']} tasks: {100 * pair['baseline_success_rate']:.1f} %; solved only "
             f"by this planner: {pair['only_run']}, only by the baseline: {pair['only_baseline']} (McNemar p = {pair['p']:.3f})"
         )
-        report["baseline"] = {"file": args.baseline, **pair}
-    if args.out:
-        with open(args.out, "w") as f:
+        report["baseline"] = {"file": baseline, **pair}
+    if out:
+        with open(out, "w") as f:
             json.dump(report, f, indent=1)
+    return report
 
 
 if __name__ == "__main__":
