@@ -25,7 +25,7 @@ def main() -> None:
     fps = all_fingerprints()
     Path(args.out).write_text(json.dumps(fps, indent=2, sort_keys=True) + "\n")
     for name, fp in fps["episodes"].items():
-        print(f"{name:36s} {fp['steps']:3d} actions, success {fp['success']}, dropped {fp['dropped']}, {fp['actions']}")
+        print(f"{name:36s} {fp['steps']:3d} actions, success {fp['success']}, dropped {fp['dropped']}")
     print(f"{len(fps['presets'])} presets; written to {args.out}")
 
 
