@@ -53,9 +53,9 @@ EPISODES = [
 # (the first tree of the restarted query finds nothing in 7.5 s either).
 HIERARCHICAL_TIMER_STRETCH = 4.0
 
-# How far a recomputed action may lie from the recorded one: far above another CPU's float
-# rounding (about 1e-6, see the module docstring), far below any change of behaviour, which moves
-# an action by more than a millimetre's worth of a command (1e-3 of its range) within an episode.
+# How far a recomputed action may lie from the recorded one: a hundred times another CPU's float
+# rounding (about 1e-6, see the module docstring), 1/20,000 of an action's range [-1, 1]; a change
+# that moves none of the recorded episodes' actions by more than this is below what they guard.
 ACTION_TOLERANCE = 1e-4
 
 
