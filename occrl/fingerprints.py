@@ -24,6 +24,7 @@ __all__ = [
     "hierarchical_for_fingerprints",
     "ACTION_TOLERANCE",
     "episode_fingerprint",
+    "episode_difference",
     "same_episode",
     "preset_fingerprints",
     "all_fingerprints",
@@ -104,9 +105,30 @@ def episode_fingerprint(method_name: str, stage: int, seed: int) -> dict:
     }
 
 
+def episode_difference(fingerprint: dict, recorded: dict, atol: float = ACTION_TOLERANCE) -> str | None:
+    """How an episode's fingerprint differs from a recorded one, or None when it equals it: the same
+    length, success and drop, and every action within ``atol`` of the recorded one.
+
+    Examples:
+        >>> from occrl.fingerprints import episode_difference
+        >>> recorded = {"actions": [[0.5, -1.0, 0.0, 1.0]], "steps": 1, "success": True, "dropped": False}
+        >>> episode_difference({**recorded, "actions": [[0.5000013, -1.0, 0.0, 1.0]]}, recorded) is None
+        True
+        >>> episode_difference({**recorded, "actions": [[0.502, -1.0, 0.0, 1.0]]}, recorded)
+        'action 0 off by 0.002 (tolerance 0.0001)'
+    """
+    outcome = {k: (fingerprint[k], recorded[k]) for k in ("steps", "success", "dropped") if fingerprint[k] != recorded[k]}
+    if outcome:
+        return f"(now, recorded): {outcome}"
+    moved = np.abs(np.asarray(fingerprint["actions"], dtype=float) - np.asarray(recorded["actions"], dtype=float)).max(axis=-1)
+    if (moved > atol).any():
+        first = int(np.argmax(moved > atol))
+        return f"action {first} off by {moved[first]:.3g} (tolerance {atol:g})"
+    return None
+
+
 def same_episode(fingerprint: dict, recorded: dict, atol: float = ACTION_TOLERANCE) -> bool:
-    """Whether an episode's fingerprint equals a recorded one: the same length, success and drop,
-    and every action within ``atol`` of the recorded one.
+    """Whether an episode's fingerprint equals a recorded one (:func:`episode_difference` finds nothing).
 
     Examples:
         >>> from occrl.fingerprints import same_episode
@@ -116,10 +138,7 @@ def same_episode(fingerprint: dict, recorded: dict, atol: float = ACTION_TOLERAN
         >>> same_episode({**recorded, "actions": [[0.502, -1.0, 0.0, 1.0]]}, recorded)
         False
     """
-    if any(fingerprint[k] != recorded[k] for k in ("steps", "success", "dropped")):
-        return False
-    mine, theirs = np.asarray(fingerprint["actions"], dtype=float), np.asarray(recorded["actions"], dtype=float)
-    return mine.shape == theirs.shape and bool(np.all(np.abs(mine - theirs) <= atol))
+    return episode_difference(fingerprint, recorded, atol) is None
 
 
 def preset_fingerprints() -> dict:
