@@ -50,10 +50,20 @@ def start_scene_pool(path: str) -> tuple[tuple, int | None]:
     return tuple(scenes), meta.get("stage")
 
 
-def training_env(stage: int, noise: float, num_envs: int, seed: int, primer_net, start_scenes: str = "", start_scenes_share: float = 0.5):
+def training_env(
+    stage: int,
+    noise: float,
+    num_envs: int,
+    seed: int,
+    primer_net,
+    start_scenes: str = "",
+    start_scenes_share: float = 0.5,
+    task_copies: int = 1,
+):
     """The env a collector worker steps: ``num_envs`` worlds of ``stage`` with the network's
     LSTM-state primer and image size; with ``start_scenes`` (a scenes file of this stage), a
-    share ``start_scenes_share`` of its episodes starting from them."""
+    share ``start_scenes_share`` of its episodes starting from them; each task in
+    ``task_copies`` consecutive worlds."""
     pool = {}
     if start_scenes:
         scenes, pool_stage = start_scene_pool(start_scenes)
@@ -68,6 +78,7 @@ def training_env(stage: int, noise: float, num_envs: int, seed: int, primer_net,
         seed=seed,
         size=primer_net.config.image_size,
         remembered_detections=primer_net.config.remembered_detections,
+        task_copies=task_copies,
         **pool,
     )
     return env.append_transform(primer_net.make_primer())
@@ -111,9 +122,10 @@ class TrainingCollector:
         c = self.config
         policy = make_policy()
         self.policy = policy
+        scene_options = dict(start_scenes=c.start_scenes, start_scenes_share=c.start_scenes_share, task_copies=c.task_copies)
         if c.collector == "single":
             self.collector = Collector(
-                partial(training_env, stage, c.noise, c.num_envs, self.seed, self.acting_net, c.start_scenes, c.start_scenes_share),
+                partial(training_env, stage, c.noise, c.num_envs, self.seed, self.acting_net, **scene_options),
                 policy,
                 frames_per_batch=c.frames_per_batch,
                 total_frames=-1,
@@ -127,8 +139,7 @@ class TrainingCollector:
             # worker k steps envs seeded from seed + k in both: the same batches either way (tested)
             stages = self.worker_stages(stage)
             factories = [
-                partial(training_env, stages[k], c.noise, per, self.seed + k, self.acting_net, c.start_scenes, c.start_scenes_share)
-                for k in range(c.workers)
+                partial(training_env, stages[k], c.noise, per, self.seed + k, self.acting_net, **scene_options) for k in range(c.workers)
             ]
             if c.collector == "multi":
                 self.collector = MultiSyncCollector(

@@ -17,6 +17,7 @@ SETTING_CHOICES: dict[str, tuple[str, ...]] = {
     "optimizer": ("rmsprop", "adam"),
     "imitation_teacher": ("scripted", "clearing", "clearing-observed", "hybrid", "hybrid-acting", "hierarchical", "self"),
     "label_episodes": ("all", "success"),
+    "success_weighting": ("episode", "task"),
     "promotion": ("learner", "hybrid"),
     "teacher_inference": ("torch", "onnxruntime"),
     "retrieval_labels": ("planner", "scripted"),
@@ -78,6 +79,10 @@ class TrainConfig:
     """Worlds collected in parallel (over all collector workers)."""
     steps_per_env: int = 50
     """Steps per world and iteration; every iteration starts all episodes afresh."""
+    task_copies: int = 1
+    """Worlds that run each training task: consecutive groups of this many worlds of a collector
+    worker start from the same scenes, each with its own physics noise and policy draws
+    (ShelfEnv's task_copies; beyond the paper). The worlds of a worker must be a multiple of it."""
     collector: str = "single"
     """TorchRL collector: "single" (one process), "multi" (MultiSyncCollector) or "ray" (RayCollector)."""
     workers: int = 2
@@ -149,6 +154,13 @@ class TrainConfig:
     frames of the episodes the teacher acted in (its own successful demonstrations; its labels on
     the learner's states are dropped). With "self" the cloned successes are a policy-gradient step
     on the success probability (beyond the paper: docs/decisions.md, "Cloning only successes")."""
+    success_weighting: str = "episode"
+    """With imitation_teacher "self": how the cloned successes weigh. "episode": every successful
+    episode alike (the gradient of the summed success probabilities). "task": each task runs in
+    task_copies (> 1) worlds and a successful episode weighs 1 / (the successes among its task's
+    copies), so every solved task weighs alike: the gradient of the summed log success
+    probabilities, which leans towards the tasks the policy rarely solves (beyond the paper:
+    docs/decisions.md, "Self-imitation weighted towards hard tasks")."""
     teacher_inference: str = "torch"
     """Network inference of the hybrid-planner teachers ("hybrid", "hybrid-acting"): "torch" or
     "onnxruntime" (pip install onnx onnxruntime; ~1.2x the labels per second, the same network to
@@ -302,6 +314,19 @@ class TrainConfig:
             raise ValueError(
                 "imitation_teacher='self' needs label_episodes='success': the learner's own actions of every "
                 "episode as labels teach nothing (their expected gradient is zero)"
+            )
+        if isinstance(self.task_copies, bool) or not isinstance(self.task_copies, int) or self.task_copies < 1:
+            raise ValueError(f"task_copies must be an integer >= 1, got {self.task_copies!r}")
+        per_worker = self.num_envs if self.collector == "single" else self.num_envs // max(self.workers, 1)
+        if per_worker % self.task_copies:
+            raise ValueError(
+                f"task_copies={self.task_copies} must divide the worlds of each collector worker "
+                f"({per_worker}: num_envs {self.num_envs}, collector {self.collector!r}, workers {self.workers})"
+            )
+        if self.success_weighting == "task" and (self.imitation_teacher != "self" or self.task_copies < 2):
+            raise ValueError(
+                "success_weighting='task' needs imitation_teacher='self' and task_copies >= 2 (the copies of a "
+                f"task count its successes), got teacher {self.imitation_teacher!r}, task_copies {self.task_copies}"
             )
         if self.teacher_weights and self.imitation_teacher != "hybrid-acting":
             raise ValueError(f"teacher_weights applies to imitation_teacher 'hybrid-acting', not {self.imitation_teacher!r}")

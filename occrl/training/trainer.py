@@ -59,7 +59,7 @@ from occrl.training.run_folder import (
     same_run_settings,
     truncate_metrics,
 )
-from occrl.training.stats import episode_stats, successful_episode_frames
+from occrl.training.stats import episode_stats, successful_episode_frames, task_success_weights
 from occrl.training.teachers import collection_policy, make_expert, teacher_network
 
 __all__ = ["Trainer", "hybrid_validation_success", "VALIDATION_SEED_BASE"]
@@ -353,7 +353,10 @@ class Trainer:
                     if c.imitation_teacher == "clearing":  # retrieval labels only: the learner keeps its search
                         data.set("expert_weight", since_first_sight(data).to(torch.float32))
                 if phase == "imitation" and c.label_episodes == "success":
-                    successes = successful_episode_frames(data).to(torch.float32)
+                    if c.success_weighting == "task":  # every solved task weighs alike
+                        successes = task_success_weights(data, c.task_copies)
+                    else:
+                        successes = successful_episode_frames(data).to(torch.float32)
                     if "expert_weight" in data.keys():
                         successes = successes * data.get("expert_weight")
                     data.set("expert_weight", successes)
@@ -402,6 +405,9 @@ class Trainer:
                     summary["cpu_hours"] = self.cpu_seconds / 3600
                 if hybrid_rate is not None:
                     summary["hybrid_success_rate"] = hybrid_rate
+                if c.task_copies > 1:  # the share of tasks at least one copy solved (in its first episode)
+                    firsts = successful_episode_frames(data)[:, 0].reshape(-1, c.task_copies)
+                    summary["task_solved_rate"] = float(firsts.any(1).float().mean())
                 if isinstance(self.expert, RetrievalTakeover):  # the share of frames the retriever acted in
                     summary["takeover_share"] = self.expert.frames_taken_over / max(self.expert.frames, 1)
                 summary.update(self.collection.per_stage_success(data, episode_stats))
