@@ -143,7 +143,7 @@ def same_episode(fingerprint: dict, recorded: dict, atol: float = ACTION_TOLERAN
 
 def preset_fingerprints() -> dict:
     """Every training preset's settings."""
-    from occrl.training.config import TRAIN_PRESETS
+    from occrl.training.presets import TRAIN_PRESETS
 
     return {name: cfg.to_dict() for name, cfg in sorted(TRAIN_PRESETS.items())}
 

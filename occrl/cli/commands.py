@@ -483,7 +483,7 @@ def run_export(args: argparse.Namespace) -> int:
     saved = load_checkpoint(checkpoint) if checkpoint.exists() else None
     started_from = saved["state"].get("init_weights") if saved else None
     if saved and "train_config" in saved:  # the recipe: the run's settings that differ from its preset's
-        from occrl.training.config import get_train_config
+        from occrl.training.presets import get_train_config
 
         preset = get_train_config(args.preset).to_dict()
         changed = {k: v for k, v in saved["train_config"].items() if k in preset and preset[k] != v}

@@ -2,7 +2,8 @@
 
 from occrl.modules.weights import CheckpointError, load_weights, save_weights
 from occrl.training.checkpoint import load_checkpoint, save_checkpoint
-from occrl.training.config import TRAIN_PRESETS, TrainConfig, get_train_config
+from occrl.training.config import TrainConfig
+from occrl.training.presets import TRAIN_PRESETS, get_train_config
 from occrl.training.curriculum import Curriculum
 from occrl.training.stats import episode_stats
 from occrl.training.trainer import Trainer

@@ -4,7 +4,7 @@ import pytest
 import torch
 
 from occrl.modules import make_occnet, with_finer_input
-from occrl.training.config import get_train_config
+from occrl.training.presets import get_train_config
 from occrl.training.learner import Learner
 
 
