@@ -2,7 +2,7 @@
 
 ``occrl demo`` runs the hybrid planner with the shipped network on a few random shelves and writes
 a summary and a GIF (the privileged scripted retriever when no network is shipped). The parser is
-here; what each command does is in :mod:`occrl.cli.commands`, the option types in
+here; what each command does is in :mod:`occrl.cli.commands` (``export``: :mod:`occrl.cli.export`), the option types in
 :mod:`occrl.cli.options`.
 """
 
@@ -14,7 +14,8 @@ import os
 import sys
 
 from occrl import __version__
-from occrl.cli.commands import run_bench, run_demo, run_eval, run_export, run_train
+from occrl.cli.commands import run_bench, run_demo, run_eval, run_train
+from occrl.cli.export import run_export
 from occrl.cli.options import COUNT, FINITE, NOISE, NON_NEGATIVE, POSITIVE, SCALE, SEED, add_train_settings
 
 __all__ = ["main", "make_parser"]
