@@ -3,7 +3,7 @@
 Usage:
     git worktree add /tmp/occrl-ref <commit>        # the code to compare against
     python benchmarks/planner_speedup.py --reference /tmp/occrl-ref [--decisions 24] [--rounds 2] [--inference onnxruntime] [--weights occnet]
-    python benchmarks/planner_speedup.py --reference /tmp/occrl-ref --episodes 8 [--rounds 2]
+    python benchmarks/planner_speedup.py --reference /tmp/occrl-ref --episodes 8 [--rounds 2] [--method hybrid-2x2]
 
 Both sides take the same decisions (observations along scripted stage-2 episodes, one planner per
 m x h that sees them in episode order, as in an episode) in child processes on one core each,
@@ -12,8 +12,9 @@ prints, per m x h, the p50 and p95 decision time of each side and their ratio (t
 and whether both sides chose the same actions (they should, unless the reference predates a
 behaviour change). ``--inference onnxruntime`` runs this side's roll-outs on ONNX Runtime (the
 reference side always uses its default). ``--episodes N`` times whole held-out stage-2 episodes
-instead (hybrid 4x4 as ``occrl eval`` runs it: one planner for all tasks, so what it keeps between
-decisions counts) and checks that both sides played the same episodes.
+instead (hybrid 4x4, or ``--method hybrid-2x2|hybrid-6x6``, as ``occrl eval`` runs it: one planner
+for all tasks, so what it keeps between decisions counts) and checks that both sides played the
+same episodes.
 """
 
 from __future__ import annotations
@@ -62,7 +63,7 @@ print(json.dumps(out))
 """
 
 
-# --episodes: whole held-out stage-2 episodes of hybrid 4x4 as occrl eval runs them (one planner
+# --episodes: whole held-out stage-2 episodes of a hybrid planner as occrl eval runs them (one planner
 # for all tasks, so its kept roll-out worlds carry over from decision to decision)
 EPISODES_CHILD = r"""
 import json, sys, time
@@ -73,7 +74,7 @@ from occrl.eval.methods import make_method
 
 tasks = int(sys.argv[1])
 options = {"inference": sys.argv[2]} if sys.argv[2] != "torch" else {}
-method = make_method("hybrid-4x4", weights=sys.argv[3], **options)
+method = make_method(sys.argv[4], weights=sys.argv[3], **options)
 seeds = [10_000_000 + i for i in range(tasks)]
 t = time.perf_counter()
 # batches of 16 worlds, as occrl eval runs them, one planner for all
@@ -84,10 +85,12 @@ print(json.dumps({"wall": wall, "decisions": decisions, "episodes": [[r.seed, bo
 """
 
 
-def measure(root: Path, weights: str, decisions: int, inference: str = "torch", episodes: int = 0) -> dict:
+def measure(root: Path, weights: str, decisions: int, inference: str = "torch", episodes: int = 0, method: str = "hybrid-4x4") -> dict:
     env = dict(os.environ, PYTHONPATH=str(root), OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
     args = (
-        [EPISODES_CHILD, str(episodes), inference, weights] if episodes else [CHILD, str(decisions), json.dumps(SIZES), inference, weights]
+        [EPISODES_CHILD, str(episodes), inference, weights, method]
+        if episodes
+        else [CHILD, str(decisions), json.dumps(SIZES), inference, weights]
     )
     proc = subprocess.run(
         [sys.executable, "-c", *args],
@@ -112,7 +115,13 @@ def main() -> None:
         "--episodes",
         type=int,
         default=0,
-        help="instead: the wall time of this many held-out stage-2 hybrid 4x4 episodes (occrl eval's way) per side",
+        help="instead: the wall time of this many held-out stage-2 episodes of --method (occrl eval's way) per side",
+    )
+    parser.add_argument(
+        "--method",
+        choices=[f"hybrid-{m}x{h}" for m, h in SIZES],
+        default="hybrid-4x4",
+        help="with --episodes: the planner whose episodes are timed (default hybrid-4x4)",
     )
     parser.add_argument(
         "--weights",
@@ -134,7 +143,9 @@ def main() -> None:
     runs: dict[str, list[dict]] = {"this": [], "reference": []}
     for r in range(args.rounds):
         for side, root in (("reference", ref), ("this", here)) if r % 2 == 0 else (("this", here), ("reference", ref)):
-            runs[side].append(measure(root, weights, args.decisions, args.inference if side == "this" else "torch", args.episodes))
+            runs[side].append(
+                measure(root, weights, args.decisions, args.inference if side == "this" else "torch", args.episodes, args.method)
+            )
             print(f"round {r + 1}/{args.rounds}: {side} done", flush=True)
     if args.episodes:
         wall = {side: np.array([run["wall"] for run in runs[side]]) for side in runs}
@@ -142,7 +153,7 @@ def main() -> None:
         t = {side: 1e3 * np.concatenate([run["decisions"] for run in runs[side]]) for side in runs}
         p = {side: (np.percentile(v, 50), np.percentile(v, 95)) for side, v in t.items()}
         print(
-            f"\n{args.episodes} held-out stage-2 episodes of hybrid 4x4 x {args.rounds} rounds, one core per side; reference: {ref}; "
+            f"\n{args.episodes} held-out stage-2 episodes of {args.method} x {args.rounds} rounds, one core per side; reference: {ref}; "
             f"this side's inference: {args.inference}\nwall per round: reference {', '.join(f'{w:.1f}' for w in wall['reference'])} s, "
             f"this {', '.join(f'{w:.1f}' for w in wall['this'])} s; ratio of the medians {np.median(wall['this']) / np.median(wall['reference']):.2f}x; "
             f"the same episodes (seed, success, actions) in {same}/{args.episodes}\n"
