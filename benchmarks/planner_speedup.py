@@ -130,6 +130,8 @@ def main() -> None:
         "occnet-warmstart for the figures measured before occrl 0.3.0, when it was the default)",
     )
     args = parser.parse_args()
+    if args.method != "hybrid-4x4" and not args.episodes:
+        parser.error("--method applies with --episodes (the decision benchmark times 2x2, 4x4 and 6x6 together)")
     from occrl.pretrained import network_name, weights_file
 
     weights = str(Path(weights_file(args.weights)).resolve())

@@ -46,7 +46,7 @@ def make_parser() -> argparse.ArgumentParser:
 
     t = sub.add_parser("train", help="train OccNet (curriculum PPO + heat-map loss); resumes from RUN_DIR")
     t.add_argument(
-        "--preset", default="paper", help="training preset (occrl/training/config.py): paper, cpu, cpu-finetune, cpu-curriculum, tiny"
+        "--preset", default="paper", help="training preset (occrl/training/presets.py): paper, cpu, cpu-finetune, cpu-curriculum, tiny"
     )
     t.add_argument("--run-dir", required=True, help="run folder (checkpoint, logs, curves); keep it outside the source tree")
     t.add_argument("--seed", type=SEED, default=0)

@@ -96,7 +96,8 @@ class ShelfEnv(EnvBase):
             world of a group starts from the same scene, while each world keeps its own stream
             for the physics noise (and the policy its own draws). 1 (the default): every world
             its own tasks, seeded as above. ``batch_size`` must be a multiple of it; with a list
-            of seeds a group's scenes follow the seed of its first world.
+            of seeds a group's scenes follow the seed of its first world (each world's noise then
+            comes from a stream spawned from its own seed). Not with ``scenes``.
 
     Examples:
         >>> from occrl.envs import ShelfEnv
@@ -161,6 +162,8 @@ class ShelfEnv(EnvBase):
             raise ValueError(f"task_copies must be an int >= 1, got {task_copies!r}")
         if batch_size[0] % task_copies:
             raise ValueError(f"batch_size ({batch_size[0]}) must be a multiple of task_copies ({task_copies})")
+        if task_copies > 1 and scenes is not None:
+            raise ValueError("task_copies > 1 needs sampled scenes or a scene_pool, not scenes (given scenes are dealt out in turn)")
         super().__init__(device=device, batch_size=batch_size)
         self.num_worlds = int(batch_size[0])
         self.task_copies = int(task_copies)
@@ -182,8 +185,9 @@ class ShelfEnv(EnvBase):
                 raise ValueError(f"a list of seeds needs one per world ({self.num_worlds}), got {len(seed)}")
             self._rngs = [np.random.default_rng(int(s)) for s in seed]
             self._scene_rngs = self._rngs
-            if self.task_copies > 1:  # a group's scenes follow its first world's seed
+            if self.task_copies > 1:  # a group's scenes follow its first world's seed, each world's noise a stream spawned from its own
                 self._scene_rngs = [np.random.default_rng(int(seed[i - i % self.task_copies])) for i in range(self.num_worlds)]
+                self._rngs = [np.random.default_rng(np.random.SeedSequence(int(s)).spawn(1)[0]) for s in seed]
             self._seed = list(seed)
         else:
             self._set_seed(seed)

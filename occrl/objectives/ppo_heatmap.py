@@ -170,7 +170,10 @@ def _expert_nll(policy_head, tensordict: TensorDictBase, min_scale: float) -> to
     if "expert_weight" not in tensordict.keys():
         return nll.mean()
     weight = tensordict.get("expert_weight").reshape(nll.shape).to(nll.dtype)
-    return (weight * nll).sum() / weight.sum().clamp_min(1.0)
+    # divided by the number of weighted frames, not the weights' sum: with weights of 0 or 1 the
+    # two agree; with graded ones (success_weighting "task") a minibatch of low-weight frames then
+    # takes a smaller step, so the weights count across minibatches, not only within one
+    return (weight * nll).sum() / (weight > 0).sum().to(nll.dtype).clamp_min(1.0)
 
 
 def imitation_nll(net: OccNet, tensordict: TensorDictBase, min_scale: float = 0.1) -> torch.Tensor:
@@ -178,8 +181,9 @@ def imitation_nll(net: OccNet, tensordict: TensorDictBase, min_scale: float = 0.
 
     The trunk must already have written ``"belief"`` (with gradients). The standard deviation is
     floored at ``min_scale`` in this loss so imitation does not collapse exploration for PPO.
-    With an ``"expert_weight"`` entry (0 or 1 per frame: a teacher that labels only some
-    situations) the mean is over the weighted frames only.
+    With an ``"expert_weight"`` entry (per frame: 0 where there is no label, 1 where there is, or
+    a graded weight such as ``TrainConfig.success_weighting="task"``'s) the loss is the weighted
+    sum over the frames with a weight above 0, divided by their number.
 
     Examples:
         >>> import torch

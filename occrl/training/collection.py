@@ -17,9 +17,11 @@ import numpy as np
 import torch
 from tensordict import TensorDictBase
 from torchrl.collectors import Collector, MultiSyncCollector
+from torchrl.envs import TransformedEnv
 from torchrl.envs.utils import ExplorationType
 
 from occrl.envs import make_env
+from occrl.modules import OccNet
 from occrl.envs.scene_files import load_scenes
 from occrl.training.config import TrainConfig
 
@@ -55,11 +57,11 @@ def training_env(
     noise: float,
     num_envs: int,
     seed: int,
-    primer_net,
+    primer_net: OccNet,
     start_scenes: str = "",
     start_scenes_share: float = 0.5,
     task_copies: int = 1,
-):
+) -> TransformedEnv:
     """The env a collector worker steps: ``num_envs`` worlds of ``stage`` with the network's
     LSTM-state primer and image size; with ``start_scenes`` (a scenes file of this stage), a
     share ``start_scenes_share`` of its episodes starting from them; each task in

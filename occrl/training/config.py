@@ -319,7 +319,9 @@ class TrainConfig:
             )
         if isinstance(self.task_copies, bool) or not isinstance(self.task_copies, int) or self.task_copies < 1:
             raise ValueError(f"task_copies must be an integer >= 1, got {self.task_copies!r}")
-        per_worker = self.num_envs if self.collector == "single" else self.num_envs // max(self.workers, 1)
+        if self.collector != "single" and (self.workers < 1 or self.num_envs % self.workers):
+            raise ValueError(f"num_envs ({self.num_envs}) must be a multiple of workers ({self.workers}) with collector {self.collector!r}")
+        per_worker = self.num_envs if self.collector == "single" else self.num_envs // self.workers
         if per_worker % self.task_copies:
             raise ValueError(
                 f"task_copies={self.task_copies} must divide the worlds of each collector worker "

@@ -75,7 +75,8 @@ def task_success_weights(data: TensorDictBase, task_copies: int) -> torch.Tensor
     """Per frame of a [B, T] batch whose consecutive groups of ``task_copies`` rows run the same
     tasks (``ShelfEnv(task_copies=...)``): 1 / (the successes among the group's episodes of the
     same ordinal, i.e. the same task) for the frames of an episode that ends in success within
-    the batch, 0 elsewhere. Every solved task then weighs 1 in all, however many copies solved it.
+    the batch, 0 elsewhere: a solved task's successful episodes share one episode's weight,
+    however many copies solved it.
 
     Examples:
         >>> from tensordict import TensorDict
@@ -90,9 +91,12 @@ def task_success_weights(data: TensorDictBase, task_copies: int) -> torch.Tensor
                 [1.0000, 1.0000],
                 [0.0000, 0.0000]])
     """
-    if isinstance(task_copies, bool) or not isinstance(task_copies, int) or task_copies < 1:
+    if isinstance(task_copies, bool) or not isinstance(task_copies, (int, np.integer)) or task_copies < 1:
         raise ValueError(f"task_copies must be an int >= 1, got {task_copies!r}")
+    if data.batch_dims != 2:
+        raise ValueError(f"expected a [worlds, time] batch, got batch shape {tuple(data.shape)} (flatten the workers first)")
     B, T = data.shape
+    task_copies = int(task_copies)
     if B % task_copies:
         raise ValueError(f"the batch's {B} rows are not groups of task_copies={task_copies}")
     succeeded = successful_episode_frames(data)

@@ -163,10 +163,22 @@ def test_task_copies_run_each_task_in_a_group_of_worlds():
     own = ShelfEnv(batch_size=2, stage=2, seed=[7, 9])
     own.reset()
     assert [repr(w.scene) for w in listed.worlds] == [repr(own.worlds[0].scene)] * 2 + [repr(own.worlds[1].scene)] * 2
-    plain, single = ShelfEnv(batch_size=2, stage=2, seed=4), ShelfEnv(batch_size=2, stage=2, seed=4, task_copies=1)
-    plain.reset(), single.reset()
-    assert [repr(w.scene) for w in plain.worlds] == [repr(w.scene) for w in single.worlds]
-    assert repr(plain.worlds[0].scene) != repr(plain.worlds[1].scene)
+    # each world's noise stream differs from its group's scene stream
+    assert str(listed.worlds[0].rng.bit_generator.state) != str(np.random.default_rng(7).bit_generator.state)
+    # task_copies=1: world k's scenes from the k-th stream spawned from the seed, as always
+    single = ShelfEnv(batch_size=2, stage=2, seed=4, task_copies=1)
+    single.reset()
+    streams = [np.random.default_rng(s) for s in np.random.SeedSequence(4).spawn(2)]
+    assert [repr(w.scene) for w in single.worlds] == [repr(Scene.sample(2, seed=rng)) for rng in streams]
+    # copies reset at different times (one's episode ends first) still meet the same next task
+    group = ShelfEnv(batch_size=2, stage=2, seed=6, task_copies=2)
+    td = group.reset()
+    first = repr(group.worlds[0].scene)
+    group.reset(td.set("_reset", torch.tensor([[True], [False]])))
+    assert repr(group.worlds[1].scene) == first and repr(group.worlds[0].scene) != first
+    second = repr(group.worlds[0].scene)
+    group.reset(td.set("_reset", torch.tensor([[False], [True]])))
+    assert repr(group.worlds[1].scene) == second
 
 
 def test_undetected_slots_reveal_nothing():
@@ -192,6 +204,7 @@ def test_undetected_slots_reveal_nothing():
         (dict(scenes=[Scene.sample(1, seed=0)], scene_pool=[Scene.sample(1, seed=1)]), "not both"),
         (dict(batch_size=4, task_copies=0), "task_copies must be an int >= 1"),
         (dict(batch_size=4, task_copies=3), "must be a multiple of task_copies"),
+        (dict(batch_size=2, task_copies=2, scenes=[Scene.sample(1, seed=0)]), "not scenes"),
     ],
 )
 def test_bad_env_arguments(kwargs, message):

@@ -100,6 +100,7 @@ def test_task_weighted_self_imitation_labels_the_successes_of_task_groups(tmp_pa
     tr = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False, init_weights=weights_file("occnet"))
     data = tr._collect()
     expected = task_success_weights(data, 2)
+    assert ((expected > 0) & (expected < 1)).any()  # a task both copies solved: its successes weigh 1/2
     pixels = data["pixels"][:, 0]
     assert torch.equal(pixels[0], pixels[1]) and torch.equal(pixels[2], pixels[3])  # the copies start alike
     assert not torch.equal(pixels[0], pixels[2])
@@ -116,3 +117,25 @@ def test_task_weighting_needs_copies_and_the_self_teacher():
         get_train_config("tiny", imitation_iters=2, imitation_teacher="self", label_episodes="success", success_weighting="task").validate()
     with pytest.raises(ValueError, match="task_copies=3 must divide"):
         get_train_config("tiny", task_copies=3).validate()
+    with pytest.raises(ValueError, match="task_copies must be an integer"):
+        get_train_config("tiny", task_copies=True).validate()
+    with pytest.raises(ValueError, match=r"num_envs \(6\) must be a multiple of workers \(4\)"):
+        get_train_config("tiny", num_envs=6, collector="multi", workers=4).validate()
+    with pytest.raises(ValueError, match=r"task_copies=4 must divide the worlds of each collector worker \(2"):
+        get_train_config("tiny", num_envs=4, collector="multi", workers=2, task_copies=4).validate()
+
+
+def test_graded_weights_count_across_minibatches():
+    """The imitation loss divides by the number of weighted frames, not the weights' sum: halving
+    every weight halves the loss (a minibatch of low-weight successes takes a smaller step), and
+    with weights of 0 or 1 it is the mean over the weighted frames."""
+    from occrl.modules import make_occnet
+    from occrl.objectives import imitation_nll
+
+    net = make_occnet("paper")
+    td = TensorDict({"belief": torch.randn(6, 128), "expert_action": torch.rand(6, 4) * 2 - 1}, batch_size=[6])
+    ones = torch.tensor([1.0, 1.0, 1.0, 0.0, 0.0, 1.0])
+    full = imitation_nll(net, td.clone().set("expert_weight", ones))
+    half = imitation_nll(net, td.clone().set("expert_weight", ones / 2))
+    assert torch.allclose(half, full / 2)
+    assert torch.allclose(full, imitation_nll(net, td[ones > 0]))
