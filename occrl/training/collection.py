@@ -98,6 +98,7 @@ class TrainingCollector:
     """
 
     def __init__(self, config: TrainConfig, seed: int, acting_net, threads: int, ray_address: str | None = None) -> None:
+        config.validate()  # the settings' checks live there (worlds per worker among them)
         self.config = config
         self.seed = int(seed)
         self.acting_net = acting_net
@@ -135,9 +136,7 @@ class TrainingCollector:
                 exploration_type=ExplorationType.RANDOM,
             )
         elif c.collector in ("multi", "ray"):
-            per = c.num_envs // c.workers
-            if per * c.workers != c.num_envs:
-                raise ValueError(f"num_envs ({c.num_envs}) must be a multiple of workers ({c.workers})")
+            per = c.num_envs // c.workers  # a whole number: TrainConfig.validate checks it
             # worker k steps envs seeded from seed + k in both: the same batches either way (tested)
             stages = self.worker_stages(stage)
             factories = [
