@@ -75,14 +75,42 @@ from occrl.eval.methods import make_method
 tasks = int(sys.argv[1])
 options = {"inference": sys.argv[2]} if sys.argv[2] != "torch" else {}
 method = make_method(sys.argv[4], weights=sys.argv[3], **options)
+
+
+# the planner keeps only its latest decisions (it deletes the oldest hundred past 200): time them all
+class KeepAll(list):
+    def __delitem__(self, key):
+        pass
+method.policy.decisions = KeepAll()
 seeds = [10_000_000 + i for i in range(tasks)]
 t = time.perf_counter()
 # batches of 16 worlds, as occrl eval runs them, one planner for all
 results = run_episodes(method.policy, task_scenes(2, seeds), seeds, 0.0, 16, method.primers, method.exploration)
 wall = time.perf_counter() - t
 decisions = [d.seconds for d in method.policy.decisions]
-print(json.dumps({"wall": wall, "decisions": decisions, "episodes": [[r.seed, bool(r.success), int(r.actions)] for r in results]}))
+roots = [len(d.roots) for d in method.policy.decisions]
+print(json.dumps({"wall": wall, "decisions": decisions, "roots": roots, "episodes": [[r.seed, bool(r.success), int(r.actions)] for r in results]}))
 """
+
+
+def round_ratios(runs: dict[str, list[dict]], q: float) -> list[float]:
+    """Per round, this side's q-th percentile decision time over the reference's."""
+    return [float(np.percentile(a["decisions"], q) / np.percentile(b["decisions"], q)) for a, b in zip(runs["this"], runs["reference"])]
+
+
+def by_roots(runs: dict[str, list[dict]]) -> str:
+    """The decisions' p50 by their number of roots (the target unseen: up to three), each side."""
+    t = {side: 1e3 * np.concatenate([run["decisions"] for run in runs[side]]) for side in runs}
+    k = {side: np.concatenate([run["roots"] for run in runs[side]]) for side in runs}
+    parts = []
+    for n in np.unique(np.concatenate(list(k.values()))):
+        ref, this = t["reference"][k["reference"] == n], t["this"][k["this"] == n]
+        if len(ref) and len(this):
+            p_ref, p_this = np.percentile(ref, 50), np.percentile(this, 50)
+            parts.append(
+                f"{n} root{'s' if n > 1 else ''}: {len(this) // len(runs['this'])} a round, p50 {p_ref:.1f} -> {p_this:.1f} ms ({p_this / p_ref:.2f}x)"
+            )
+    return "by the decisions' roots: " + "; ".join(parts)
 
 
 def measure(root: Path, weights: str, decisions: int, inference: str = "torch", episodes: int = 0, method: str = "hybrid-4x4") -> dict:
@@ -159,9 +187,12 @@ def main() -> None:
             f"this side's inference: {args.inference}\nwall per round: reference {', '.join(f'{w:.1f}' for w in wall['reference'])} s, "
             f"this {', '.join(f'{w:.1f}' for w in wall['this'])} s; ratio of the medians {np.median(wall['this']) / np.median(wall['reference']):.2f}x; "
             f"the same episodes (seed, success, actions) in {same}/{args.episodes}\n"
-            f"their decisions (the planner's own time, as HybridPlanner.decisions records it): p50 {p['reference'][0]:.1f} -> {p['this'][0]:.1f} ms "
-            f"({p['this'][0] / p['reference'][0]:.2f}x), p95 {p['reference'][1]:.1f} -> {p['this'][1]:.1f} ms ({p['this'][1] / p['reference'][1]:.2f}x)"
+            f"their decisions (the planner's own time, as HybridPlanner.decisions records it; all {len(t['reference']) // args.rounds} / "
+            f"{len(t['this']) // args.rounds} of a round): p50 {p['reference'][0]:.1f} -> {p['this'][0]:.1f} ms "
+            f"({p['this'][0] / p['reference'][0]:.2f}x), p95 {p['reference'][1]:.1f} -> {p['this'][1]:.1f} ms ({p['this'][1] / p['reference'][1]:.2f}x)\n"
+            f"round by round: p50 {', '.join(f'{a:.2f}x' for a in round_ratios(runs, 50))}, p95 {', '.join(f'{a:.2f}x' for a in round_ratios(runs, 95))}"
         )
+        print(by_roots(runs))
         return
     print(
         f"\n{args.decisions} decisions on stage-2 states x {args.rounds} rounds, one core per side; reference: {ref}; "
