@@ -13,8 +13,9 @@ and whether both sides chose the same actions (they should, unless the reference
 behaviour change). ``--inference onnxruntime`` runs this side's roll-outs on ONNX Runtime (the
 reference side always uses its default). ``--episodes N`` times whole held-out stage-2 episodes
 instead (hybrid 4x4, or ``--method hybrid-2x2|hybrid-6x6``, as ``occrl eval`` runs it: one planner
-for all tasks, so what it keeps between decisions counts) and checks that both sides played the
-same episodes.
+for all tasks, so what it keeps between decisions counts), timing every decision of each world's
+own episode (not those the planner makes for a batch's worlds after their episode ended), and
+checks that both sides played the same episodes.
 """
 
 from __future__ import annotations
@@ -95,7 +96,7 @@ for start in range(0, tasks, 16):
     out = run_episodes(method.policy, task_scenes(2, chunk), chunk, 0.0, 16, method.primers, method.exploration)
     wall += time.perf_counter() - t
     results += out
-    made = list(method.policy.decisions)[before:]
+    made = method.policy.decisions[before:]
     actions = {r.seed: int(r.actions) for r in out}
     assert len(made) % len(chunk) == 0, (len(made), len(chunk))
     for k, d in enumerate(made):
@@ -111,10 +112,9 @@ def round_ratios(runs: dict[str, list[dict]], q: float) -> list[float]:
     return [float(np.percentile(a["decisions"], q) / np.percentile(b["decisions"], q)) for a, b in zip(runs["this"], runs["reference"])]
 
 
-def by_roots(runs: dict[str, list[dict]]) -> str:
-    """The decisions' p50 by their number of roots (the target unseen: up to three), each side."""
-    t = {side: 1e3 * np.concatenate([run["decisions"] for run in runs[side]]) for side in runs}
-    k = {side: np.concatenate([run["roots"] for run in runs[side]]) for side in runs}
+def by_roots(t: dict[str, np.ndarray], k: dict[str, np.ndarray], rounds: int) -> str:
+    """The decisions' p50 by their number of roots (the target unseen: up to three), each side:
+    ``t`` the decision times (ms) and ``k`` their roots, each side's rounds together."""
     parts = []
     for n in np.unique(np.concatenate(list(k.values()))):
         ref, this = t["reference"][k["reference"] == n], t["this"][k["this"] == n]
@@ -122,8 +122,7 @@ def by_roots(runs: dict[str, list[dict]]) -> str:
         p_this = f"{np.percentile(this, 50):.1f}" if len(this) else "-"
         ratio = f" ({np.percentile(this, 50) / np.percentile(ref, 50):.2f}x)" if len(ref) and len(this) else ""
         parts.append(
-            f"{n} root{'s' if n > 1 else ''}: {len(ref) // len(runs['reference'])} / {len(this) // len(runs['this'])} a round, "
-            f"p50 {p_ref} -> {p_this} ms{ratio}"
+            f"{n} root{'s' if n > 1 else ''}: {len(ref) // rounds} / {len(this) // rounds} a round, p50 {p_ref} -> {p_this} ms{ratio}"
         )
     return "by the decisions' roots: " + "; ".join(parts)
 
@@ -207,7 +206,7 @@ def main() -> None:
             f"({p['this'][0] / p['reference'][0]:.2f}x), p95 {p['reference'][1]:.1f} -> {p['this'][1]:.1f} ms ({p['this'][1] / p['reference'][1]:.2f}x)\n"
             f"round by round: p50 {', '.join(f'{a:.2f}x' for a in round_ratios(runs, 50))}, p95 {', '.join(f'{a:.2f}x' for a in round_ratios(runs, 95))}"
         )
-        print(by_roots(runs))
+        print(by_roots(t, {side: np.concatenate([run["roots"] for run in runs[side]]) for side in runs}, args.rounds))
         return
     print(
         f"\n{args.decisions} decisions on stage-2 states x {args.rounds} rounds, one core per side; reference: {ref}; "
