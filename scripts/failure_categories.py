@@ -13,7 +13,8 @@ one category, read from the env's privileged ground truth (analysis only; no met
 - detected, never held: seen at some step, never between the fingers; split by how close the
   gripper came: it closed its fingers at least once and held nothing ("closed, missed"), it
   brought the target's centre within 8 cm of the point between its fingertips' middle and never
-  closed ("approached, never closed"), or never that close ("never approached");
+  closed ("approached, never closed"), or never that close ("never approached"); of the
+  "closed, missed" it counts those that did come that close at some step;
 - held, not out: grasped at some step but not pulled out within 50 actions.
 
 It also prints the share of the episode's steps with the gripper outside the shelf (y < 0): a
@@ -101,20 +102,29 @@ def main() -> None:
     counts: Counter = Counter()
     outside = []
     never_in_view = 0
+    missed_nearest: list[float] = []
     for seed in failed:
         facts = categorise(rollout_tasks(method, d["stage"], [seed], d["noise"], replicate=d.get("replicate", 0)))
         counts[facts["category"]] += 1
+        if facts["category"] == "detected, never held (closed, missed)":
+            missed_nearest.append(facts["nearest_to_grasp_point_m"])
         outside.append(facts["outside_share"])
         never_in_view += facts["category"] == "never detected" and not facts["ever_in_view"]
         print(
             f"seed {seed}: {facts['category']:50s} first seen at step {facts['first_detected']}, seen on "
-            f"{facts['detected_share']:.0%} of steps, gripper outside on {facts['outside_share']:.0%}, target depth {facts['target_depth_m']:.2f} m"
+            f"{facts['detected_share']:.0%} of steps, gripper outside on {facts['outside_share']:.0%}, target depth {facts['target_depth_m']:.2f} m, "
+            f"nearest to the grasp point {facts['nearest_to_grasp_point_m']:.2f} m"
             + ("" if facts["ever_in_view"] else ", never in the field of view"),
             flush=True,
         )
     print(f"{d['method']} stage {d['stage']}: {len(failed)} failures replayed: " + ", ".join(f"{k} {v}" for k, v in counts.most_common()))
     never_held = sum(v for k, v in counts.items() if k.startswith("detected, never held"))
     print(f"detected, never held: {never_held} (closed, missed; approached, never closed; never approached: split above)")
+    missed = np.array(missed_nearest)
+    print(
+        f"closed, missed: {(missed <= APPROACHED).sum()} of {len(missed)} with the target's centre within "
+        f"{APPROACHED * 100:.0f} cm of the grasp point at some step (the others never came that close)"
+    )
     outside = np.array(outside)
     print(f"gripper outside the shelf on >= 90 % of the steps in {(outside >= 0.9).sum()} of {len(failed)} failures")
     print(f"never detected and never in the camera's field of view: {never_in_view} of {counts['never detected']}")

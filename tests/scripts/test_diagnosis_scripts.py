@@ -72,6 +72,9 @@ def test_failure_categories_splits_a_missed_grasp(tmp_path):
     out = _run("scripts/failure_categories.py", str(path), "--weights", "occnet-takeover")
     assert "seed 10000007: detected, never held (closed, missed)" in out
     assert "detected, never held: 1 " in out
+    # the gripper brought the target's centre to the point between its fingers, and still missed
+    assert "nearest to the grasp point 0.00 m" in out
+    assert "closed, missed: 1 of 1 with the target's centre within 8 cm of the grasp point" in out
 
 
 def test_close_outcomes_finds_grasps_that_only_the_recreated_world_makes():
