@@ -15,7 +15,8 @@ reference side always uses its default). ``--episodes N`` times whole held-out s
 instead (hybrid 4x4, or ``--method hybrid-2x2|hybrid-6x6``, as ``occrl eval`` runs it: one planner
 for all tasks, so what it keeps between decisions counts), timing every decision of each world's
 own episode (not those the planner makes for a batch's worlds after their episode ended), and
-checks that both sides played the same episodes.
+checks that both sides played the same episodes; it also prints how many roll-out worlds each
+side's planner built and rebuilt in the first round (where the checkout counts them).
 """
 
 from __future__ import annotations
@@ -103,7 +104,11 @@ for start in range(0, tasks, 16):
         if k // len(chunk) < actions[chunk[k % len(chunk)]]:
             decisions.append(d.seconds)
             roots.append(len(d.roots))
-print(json.dumps({"wall": wall, "decisions": decisions, "roots": roots, "episodes": [[r.seed, bool(r.success), int(r.actions)] for r in results]}))
+# the roll-out worlds the planner built and rebuilt (a checkout whose planner keeps none, or does
+# not count them: None)
+pool = getattr(method.policy, "pool", None)
+built, rebuilt = getattr(pool, "built", None), getattr(pool, "rebuilt", None)
+print(json.dumps({"wall": wall, "decisions": decisions, "roots": roots, "episodes": [[r.seed, bool(r.success), int(r.actions)] for r in results], "built": built, "rebuilt": rebuilt}))
 """
 
 
@@ -207,6 +212,9 @@ def main() -> None:
             f"round by round: p50 {', '.join(f'{a:.2f}x' for a in round_ratios(runs, 50))}, p95 {', '.join(f'{a:.2f}x' for a in round_ratios(runs, 95))}"
         )
         print(by_roots(t, {side: np.concatenate([run["roots"] for run in runs[side]]) for side in runs}, args.rounds))
+        first = {side: runs[side][0] for side in runs}
+        counts = {side: f"{r['built']} / {r['rebuilt']}" if r.get("built") is not None else "not counted" for side, r in first.items()}
+        print(f"roll-out worlds built / rebuilt (first round): reference {counts['reference']}, this {counts['this']}")
         return
     print(
         f"\n{args.decisions} decisions on stage-2 states x {args.rounds} rounds, one core per side; reference: {ref}; "
