@@ -16,7 +16,11 @@ instead (hybrid 4x4, or ``--method hybrid-2x2|hybrid-6x6``, as ``occrl eval`` ru
 for all tasks, so what it keeps between decisions counts), timing every decision of each world's
 own episode (not those the planner makes for a batch's worlds after their episode ended), and
 checks that both sides played the same episodes; it also prints how many roll-out worlds each
-side's planner built and rebuilt in the first round (where the checkout counts them).
+side's planner built and rebuilt in the first round (where the checkout counts them). The
+pooled percentiles compare each side's own episodes, whose mix of cheap (one root) and dear
+(three roots) decisions differs where the episodes differ (ONNX Runtime's rounding turns
+near-ties); the line "the same work" compares only the decisions of the episodes both sides
+played alike, decision for decision: the like-for-like ratio.
 """
 
 from __future__ import annotations
@@ -85,7 +89,7 @@ class KeepAll(list):
         pass
 method.policy.decisions = KeepAll()
 seeds = [10_000_000 + i for i in range(tasks)]
-wall, results, decisions, roots = 0.0, [], [], []
+wall, results, decisions, roots, owners = 0.0, [], [], [], []
 # batches of 16 worlds, as occrl eval runs them, one planner for all. The planner decides for every
 # world of a batch at every step, world by world, also for worlds whose episode has ended (one
 # checkout leaves them as they ended, another resets them): only the decisions of a world's own
@@ -104,17 +108,35 @@ for start in range(0, tasks, 16):
         if k // len(chunk) < actions[chunk[k % len(chunk)]]:
             decisions.append(d.seconds)
             roots.append(len(d.roots))
+            owners.append([chunk[k % len(chunk)], k // len(chunk)])  # (episode seed, step)
 # the roll-out worlds the planner built and rebuilt (a checkout whose planner keeps none, or does
 # not count them: None)
 pool = getattr(method.policy, "pool", None)
 built, rebuilt = getattr(pool, "built", None), getattr(pool, "rebuilt", None)
-print(json.dumps({"wall": wall, "decisions": decisions, "roots": roots, "episodes": [[r.seed, bool(r.success), int(r.actions)] for r in results], "built": built, "rebuilt": rebuilt}))
+print(json.dumps({"wall": wall, "decisions": decisions, "roots": roots, "owners": owners, "episodes": [[r.seed, bool(r.success), int(r.actions)] for r in results], "built": built, "rebuilt": rebuilt}))
 """
 
 
 def round_ratios(runs: dict[str, list[dict]], q: float) -> list[float]:
     """Per round, this side's q-th percentile decision time over the reference's."""
     return [float(np.percentile(a["decisions"], q) / np.percentile(b["decisions"], q)) for a, b in zip(runs["this"], runs["reference"])]
+
+
+def same_work(runs: dict[str, list[dict]]) -> tuple[int, dict[str, list[np.ndarray]]]:
+    """The decisions of the episodes both sides played alike (seed, success and actions the same
+    in every round of both sides), each side's times (ms) per round in one order, (seed, step)
+    by (seed, step): the same decisions on the same observations, so their percentiles compare
+    the same work, whatever the other episodes' mix of decisions. Returns the number of such
+    episodes and the times."""
+    played = [{tuple(e) for e in run["episodes"]} for side in runs for run in runs[side]]
+    alike = {e[0] for e in set.intersection(*played)}
+    times: dict[str, list[np.ndarray]] = {}
+    for side in runs:
+        times[side] = []
+        for run in runs[side]:
+            keyed = {tuple(o): 1e3 * t for o, t in zip(run["owners"], run["decisions"]) if o[0] in alike}
+            times[side].append(np.array([keyed[k] for k in sorted(keyed)]))
+    return len(alike), times
 
 
 def by_roots(t: dict[str, np.ndarray], k: dict[str, np.ndarray], rounds: int) -> str:
@@ -212,6 +234,20 @@ def main() -> None:
             f"round by round: p50 {', '.join(f'{a:.2f}x' for a in round_ratios(runs, 50))}, p95 {', '.join(f'{a:.2f}x' for a in round_ratios(runs, 95))}"
         )
         print(by_roots(t, {side: np.concatenate([run["roots"] for run in runs[side]]) for side in runs}, args.rounds))
+        alike, w = same_work(runs)
+        if alike and all(len(r) for r in w["this"]):
+            pooled = {side: np.concatenate(w[side]) for side in w}
+            q = {side: (np.percentile(v, 50), np.percentile(v, 95)) for side, v in pooled.items()}
+            rounds = [
+                (np.percentile(a, 50) / np.percentile(b, 50), np.percentile(a, 95) / np.percentile(b, 95))
+                for a, b in zip(w["this"], w["reference"])
+            ]
+            print(
+                f"the same work (the {len(w['this'][0])} decisions a round of the {alike} episodes both sides played alike): "
+                f"p50 {q['reference'][0]:.1f} -> {q['this'][0]:.1f} ms ({q['this'][0] / q['reference'][0]:.2f}x), "
+                f"p95 {q['reference'][1]:.1f} -> {q['this'][1]:.1f} ms ({q['this'][1] / q['reference'][1]:.2f}x); "
+                f"round by round: p50 {', '.join(f'{a:.2f}x' for a, _ in rounds)}, p95 {', '.join(f'{b:.2f}x' for _, b in rounds)}"
+            )
         first = {side: runs[side][0] for side in runs}
         counts = {side: f"{r['built']} / {r['rebuilt']}" if r.get("built") is not None else "not counted" for side, r in first.items()}
         print(f"roll-out worlds built / rebuilt (first round): reference {counts['reference']}, this {counts['this']}")
