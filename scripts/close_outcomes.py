@@ -38,7 +38,7 @@ from occrl.eval.methods import make_method
 from occrl.eval.runner import EVAL_SEED_BASE, rollout_tasks
 from occrl.planners import make_world, recreate
 from occrl.pretrained import weights_file
-from oracle_roots import true_state  # scripts/: run as `python scripts/close_outcomes.py`
+from occrl.baselines.oracle_planner import true_state
 
 
 def blocking_objects(td, t: int, truth) -> list[dict]:

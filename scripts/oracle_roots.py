@@ -35,82 +35,15 @@ import time
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-import numpy as np
 import torch
-from tensordict import TensorDictBase
 from tqdm import tqdm
 
-from occrl.envs import SceneObject
+from occrl.baselines.oracle_planner import ORACLE_ROOTS as ROOTS
+from occrl.baselines.oracle_planner import OracleRootsPlanner
 from occrl.envs.episodes import task_scenes
 from occrl.eval.methods import make_method
 from occrl.eval.runner import EVAL_SEED_BASE, paired_with, summarize
-from occrl.envs import world_constants as C
-from occrl.planners import HybridPlanner, RecreatedState, Root, recreate, with_target
-from occrl.planners.rhp import NetworkStepper
 from occrl.pretrained import network_name, weights_file
-
-
-def true_state(obs: TensorDictBase) -> RecreatedState:
-    """The true state of one observation (it reads ``"privileged"``): every object on the shelf at
-    its true pose and shape, hidden ones included, the target where it is; the gripper as recreated.
-    A held object is between the fingers at its true pose, so the imagined world grasps it."""
-    state = recreate(obs)
-    priv = obs.get("privileged")
-    slot = int(priv.get("target_slot").reshape(-1)[0])
-    poses = priv.get("object_pose").cpu().numpy().astype(float)
-    present = priv.get("object_present").cpu().numpy().astype(bool)
-    vertices = priv.get("object_vertices").cpu().numpy().astype(float)
-    counts = priv.get("object_num_vertices").cpu().numpy()
-    # rendering tells only the target from the rest: any other type id will do for clutter
-    clutter_type = state.target_type + 1
-    objects = tuple(
-        SceneObject(state.target_type if k == slot else clutter_type, vertices[k, : counts[k]], tuple(poses[k]), k == slot)
-        for k in np.flatnonzero(present)
-    )
-    return RecreatedState(objects, state.gripper_pose, state.opening, state.closed, state.target_type, state.target_vertices)
-
-
-ROOTS = ("state", "target", "own")
-
-
-class ZeroValueStepper(NetworkStepper):
-    """The roll-outs' network calls with a value of 0 at the horizon."""
-
-    def value(self, out: dict[str, torch.Tensor]) -> torch.Tensor:
-        return torch.zeros(out["loc"].shape[0])
-
-
-class OracleRootsPlanner(HybridPlanner):
-    """The hybrid planner planning from privileged roots (``which``: ``"state"`` or ``"target"``)
-    or its own (``"own"``, no privileged key read); ``to_the_end``: roll-outs to the episode's
-    action limit, scored by their rewards alone."""
-
-    def __init__(self, net, which: str, to_the_end: bool = False, **kwargs) -> None:
-        super().__init__(net, **kwargs)
-        if which not in ROOTS:
-            raise ValueError(f"which must be one of {ROOTS}, got {which!r}")
-        self.which = which
-        self.to_the_end = to_the_end
-        if to_the_end:
-            self.stepper = ZeroValueStepper(net)
-        self.in_keys = [*self.in_keys, *(["privileged"] if which != "own" else []), "step_count"]
-
-    def decide(self, obs: TensorDictBase, heatmap: np.ndarray, hidden):
-        if self.to_the_end:  # the roll-outs' depth: the actions left in the episode
-            self.h = max(1, C.MAX_EPISODE_STEPS - int(obs.get("step_count").reshape(-1)[0]))
-        return super().decide(obs, heatmap, hidden)
-
-    def roots(self, obs: TensorDictBase, heatmap: np.ndarray) -> list[Root]:
-        if self.which == "own":
-            return super().roots(obs, heatmap)
-        if self.which == "state":
-            return [Root(true_state(obs), 1.0)]
-        state = recreate(obs)
-        if state.target_detected:
-            return [Root(state, 1.0)]
-        priv = obs.get("privileged")
-        slot = int(priv.get("target_slot").reshape(-1)[0])
-        return [Root(with_target(state, tuple(priv.get("object_pose")[slot].cpu().numpy().astype(float))), 1.0)]
 
 
 def main() -> None:

@@ -26,6 +26,7 @@ SETTING_CHOICES: dict[str, tuple[str, ...]] = {
     "takeover_retriever": ("scripted", "clearing", "hierarchical"),
     "takeover_at": ("first-sight", "start"),
     "teacher_search": ("learner", "hierarchical"),
+    "teacher_roots": ("own", "state", "target"),
 }
 
 
@@ -174,6 +175,17 @@ class TrainConfig:
     learns from the episodes of a planner that does not change, and may itself lack the heat-map
     head (heatmap=False: the greedy / stochastic baselines' network trained on the same planner's
     episodes as the full network). "": the live network (expert iteration)."""
+    teacher_roots: str = "own"
+    """"hybrid-acting": where the acting planner's roots come from. "own": the paper's planner (its
+    heat-map's peaks over the recreated state). "state": one root, the true state, hidden objects
+    included; "target": the recreated state with the target at its true pose (both privileged:
+    occrl.baselines.oracle_planner.OracleRootsPlanner; beyond the paper). With
+    teacher_to_the_end the planner's choices are the best of its policy's own samples as far as
+    the true world tells: self-imitation with hindsight (docs/decisions.md)."""
+    teacher_to_the_end: bool = False
+    """"hybrid-acting": each roll-out of the acting planner runs to the episode's action limit and
+    is scored by its rewards, no value at a horizon (OracleRootsPlanner(to_the_end=True); about 10
+    times a plain planner's time; the planner's worlds one by one)."""
     retrieval_labels: str = "planner"
     """"hybrid-acting": who labels the steps at which the learner's observation shows the target:
     the acting planner ("planner") or the privileged scripted retriever ("scripted": a direct
@@ -331,6 +343,10 @@ class TrainConfig:
             raise ValueError(
                 "success_weighting='task' needs imitation_teacher='self' and task_copies >= 2 (the copies of a "
                 f"task count its successes), got teacher {self.imitation_teacher!r}, task_copies {self.task_copies}"
+            )
+        if (self.teacher_roots != "own" or self.teacher_to_the_end) and self.imitation_teacher != "hybrid-acting":
+            raise ValueError(
+                f"teacher_roots / teacher_to_the_end apply to imitation_teacher 'hybrid-acting', not {self.imitation_teacher!r}"
             )
         if self.teacher_weights and self.imitation_teacher != "hybrid-acting":
             raise ValueError(f"teacher_weights applies to imitation_teacher 'hybrid-acting', not {self.imitation_teacher!r}")

@@ -225,11 +225,7 @@ def test_oracle_roots_plan_in_a_world_that_steps_as_the_real_one():
 
     from occrl.envs import world_constants as C
 
-    sys.path.insert(0, str(ROOT / "scripts"))
-    try:
-        from oracle_roots import OracleRootsPlanner
-    finally:
-        sys.path.remove(str(ROOT / "scripts"))
+    from occrl.baselines.oracle_planner import OracleRootsPlanner
     from occrl.envs.episodes import seeded_task_env, task_scenes
     from occrl.modules import make_occnet
     from occrl.planners import HybridPlanner, make_world, recreate

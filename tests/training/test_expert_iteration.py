@@ -1,5 +1,6 @@
 """Expert iteration: the hybrid planner labels the learner's frames (``imitation_teacher="hybrid"``)."""
 
+import dataclasses
 import json
 
 import pytest
@@ -339,3 +340,39 @@ def test_clearing_observed_teacher_after_the_learners_roll_in(tmp_path):
     for bad in (-1, 2.5, True):
         with pytest.raises(ValueError, match="roll_in must be an integer"):
             OnlineTeacherPolicy(tr.net.policy, tr.expert, roll_in=bad)
+
+
+def test_hybrid_acting_teacher_planning_from_the_true_state(tmp_path):
+    """teacher_roots="state": the acting planner plans from one root, the true state (it reads
+    "privileged"); its actions are the labels. With teacher_to_the_end its roll-outs run to the
+    episode's end, its worlds planned one by one."""
+    from occrl.baselines.oracle_planner import OracleRootsPlanner
+    from occrl.training.teachers import make_expert
+
+    cfg = get_train_config("tiny", imitation_iters=5, imitation_teacher="hybrid-acting", collector="single", teacher_roots="state")
+    tr = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False)
+    assert isinstance(tr.expert, OracleRootsPlanner) and tr.expert.net is tr.net
+    assert tr.expert.which == "state" and not tr.expert.to_the_end and "privileged" in tr.expert.in_keys
+    data = tr._collect()
+    decided = tr.expert.decisions[-data.numel() :]
+    assert all(len(d.roots) == 1 for d in decided)  # one root: the true state, target seen or not
+    taken = data["action"].transpose(0, 1).reshape(-1, 4)
+    assert torch.allclose(taken, torch.stack([torch.as_tensor(d.action, dtype=torch.float32) for d in decided]), atol=1e-6)
+    tr.train(iterations=1)
+    tr.close()
+    deep = make_expert(dataclasses.replace(cfg, teacher_to_the_end=True), tr.net, seed=0)
+    assert isinstance(deep, OracleRootsPlanner) and deep.to_the_end and not deep.batch_worlds
+    td = make_env(batch_size=1, stage=2, seed=3, heatmap_target=False).append_transform(tr.net.make_primer()).reset()
+    deep(td)
+    assert deep.decisions[-1].result.steps > 4 * 4  # past the plain planner's horizon of 4
+    for settings in (dict(teacher_roots="state"), dict(teacher_to_the_end=True)):
+        with pytest.raises(ValueError, match="apply to imitation_teacher 'hybrid-acting'"):
+            Trainer(get_train_config("tiny", imitation_teacher="scripted", **settings), tmp_path / "bad", seed=0, progress=False)
+    with pytest.raises(ValueError, match="teacher_roots must be one of"):
+        Trainer(
+            get_train_config("tiny", imitation_teacher="hybrid-acting", collector="single", teacher_roots="truth"),
+            tmp_path / "bad",
+            seed=0,
+            progress=False,
+        )
+    assert not (tmp_path / "bad" / "checkpoint.pt").exists()
