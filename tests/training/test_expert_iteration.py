@@ -365,6 +365,10 @@ def test_hybrid_acting_teacher_planning_from_the_true_state(tmp_path):
     td = make_env(batch_size=1, stage=2, seed=3, heatmap_target=False).append_transform(tr.net.make_primer()).reset()
     deep(td)
     assert deep.decisions[-1].result.steps > 4 * 4  # past the plain planner's horizon of 4
+    with pytest.raises(ValueError, match="batch_worlds must be False"):
+        OracleRootsPlanner(tr.net, "state", to_the_end=True, batch_worlds=True)
+    with pytest.raises(ValueError, match="which must be one of"):
+        OracleRootsPlanner(tr.net, "truth")
     for settings in (dict(teacher_roots="state"), dict(teacher_to_the_end=True)):
         with pytest.raises(ValueError, match="apply to imitation_teacher 'hybrid-acting'"):
             Trainer(get_train_config("tiny", imitation_teacher="scripted", **settings), tmp_path / "bad", seed=0, progress=False)
