@@ -31,8 +31,8 @@ import torch
 
 from occrl.envs import world_constants as C
 from occrl.envs.geometry import transform_polygons
-from occrl.envs.render import DEFAULT_CANVAS, Canvas, labels_to_pixels, render_labels_at, render_labels_batch
-from occrl.envs.robot_frame import DEFAULT_FORWARD_OFFSET, DEFAULT_SIZE, DEFAULT_WINDOW, robot_centric_points
+from occrl.envs.render import DEFAULT_CANVAS, Canvas, labels_to_pixels, render_labels_at_pixels, render_labels_batch
+from occrl.envs.robot_frame import DEFAULT_FORWARD_OFFSET, DEFAULT_SIZE, DEFAULT_WINDOW, robot_centric_points, robot_centric_xy
 from occrl.envs.shelf_geometry import SHELF_WALLS
 from occrl.envs.visibility import detect, visible_fractions_batch
 
@@ -85,7 +85,7 @@ WALLS_PADDED = np.stack([pad_polygon(w).astype(float) for w in SHELF_WALLS])
 def world_visible_fractions(world, poses: np.ndarray | None = None) -> np.ndarray:
     """(n,) visible fraction of each object of a 2D world from its gripper camera.
 
-    ``world`` offers ``object_world_padded(poses)``, ``gripper_pose()``, ``held`` and optionally
+    ``world`` offers ``padded_vertices`` (n, V, 2), ``object_poses()``, ``gripper_pose()``, ``held`` and optionally
     ``unseen_while_held`` (an object index, or None): while that object is held the camera
     neither sees it (it reads 0) nor is hidden by it (its pose in hand is only a guess).
 
@@ -116,7 +116,12 @@ def worlds_visible_fractions(worlds: Sequence, poses: Sequence[np.ndarray | None
     for w in worlds:
         unseen = getattr(w, "unseen_while_held", None)
         hidden.append(unseen if unseen is not None and w.held == unseen else None)
-    objects = [w.object_world_padded(p) for w, p in zip(worlds, poses)]
+    if not worlds:
+        return []
+    # every world's objects in one transform (elementwise: each polygon's values as alone)
+    poses = [w.object_poses() if p is None else np.asarray(p, dtype=float) for w, p in zip(worlds, poses)]
+    polygons = transform_polygons(np.concatenate([w.padded_vertices for w in worlds]), np.concatenate(poses).reshape(-1, 3))
+    objects = np.split(polygons, np.cumsum([len(p) for p in poses[:-1]]))
     cameras = np.array([w.gripper_pose() for w in worlds], dtype=float).reshape(-1, 3)
     return visible_fractions_batch(objects, cameras, WALLS_PADDED, hidden=hidden)
 
@@ -259,5 +264,5 @@ def world_pixels(worlds: Sequence, size: int = DEFAULT_SIZE) -> torch.Tensor:
     a = detection_arrays(worlds, worlds_visible_fractions(worlds, poses), poses)
     polygons = detected_world_polygons(a["detected"], a["type_id"], a["pose"], a["vertices"], a["num_vertices"], a["target_type"])
     # render_shelf_labels + crop_to_pixels, bit for bit, drawing only the part of the shelf the window shows
-    points = robot_centric_points(a["gripper_pose"].astype(np.float64), size=size)
-    return labels_to_pixels(render_labels_at(a["gripper_pose"], a["gripper_opening"], polygons, points))
+    pixels = DEFAULT_CANVAS.pixel_indices_xy(*robot_centric_xy(a["gripper_pose"].astype(np.float64), size=size))
+    return labels_to_pixels(render_labels_at_pixels(a["gripper_pose"], a["gripper_opening"], polygons, *pixels))

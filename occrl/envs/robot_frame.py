@@ -12,7 +12,7 @@ from functools import lru_cache
 
 import numpy as np
 
-__all__ = ["robot_centric_points", "robot_centric_pixels", "DEFAULT_WINDOW", "DEFAULT_SIZE", "DEFAULT_FORWARD_OFFSET"]
+__all__ = ["robot_centric_points", "robot_centric_xy", "robot_centric_pixels", "DEFAULT_WINDOW", "DEFAULT_SIZE", "DEFAULT_FORWARD_OFFSET"]
 
 DEFAULT_WINDOW = 0.8  # m
 DEFAULT_SIZE = 64  # pixels
@@ -20,15 +20,45 @@ DEFAULT_FORWARD_OFFSET = 0.15  # m: the window spans 0.25 m behind to 0.55 m ahe
 
 
 @lru_cache(maxsize=8)
-def _local_grid(window: float, size: int, forward_offset: float) -> np.ndarray:
-    """(size, size, 2) pixel centres in the gripper frame; computed once per window (read-only)."""
+def _local_axes(window: float, size: int, forward_offset: float) -> tuple[np.ndarray, np.ndarray]:
+    """The gripper-frame x of each pixel column and y of each pixel row, (size,) each (read-only,
+    computed once per window): the pixel centre of row r, column k is (x[k], y[r])."""
     pix = window / size
     k = np.arange(size) + 0.5
     xl = (k - size / 2) * pix  # columns -> gripper +x (to the right in the image)
     yl = forward_offset + (size / 2 - k) * pix  # rows -> gripper +y (up in the image)
-    grid = np.stack(np.broadcast_arrays(xl[None, :], yl[:, None]), -1)  # (size, size, 2)
-    grid.flags.writeable = False
-    return grid
+    xl.flags.writeable = yl.flags.writeable = False
+    return xl, yl
+
+
+def robot_centric_xy(
+    gripper_poses: np.ndarray,
+    window: float = DEFAULT_WINDOW,
+    size: int = DEFAULT_SIZE,
+    forward_offset: float = DEFAULT_FORWARD_OFFSET,
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`robot_centric_points` as two arrays, the shelf-frame x and y (..., size, size) of
+    each pixel centre (the same values, without the stacking: for callers that use x and y
+    apart, e.g. :meth:`occrl.envs.render.Canvas.pixel_indices_xy`).
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.robot_frame import robot_centric_points, robot_centric_xy
+        >>> poses = np.array([[0.1, -0.1, 0.3], [0.0, 0.0, -1.0]])
+        >>> x, y = robot_centric_xy(poses)
+        >>> x.shape, bool((np.stack([x, y], -1) == robot_centric_points(poses)).all())
+        ((2, 64, 64), True)
+    """
+    poses = np.asarray(gripper_poses, dtype=float)
+    xl, yl = _local_axes(window, size, forward_offset)
+    c, s = np.cos(poses[..., 2])[..., None, None], np.sin(poses[..., 2])[..., None, None]
+    # each pixel's rotated offset (c x - s y, s x + c y): the products are a column's or a row's,
+    # computed once per column or row and broadcast (the same values as per pixel)
+    x = c * xl - s * yl[:, None]
+    x += poses[..., 0, None, None]
+    y = s * xl + c * yl[:, None]
+    y += poses[..., 1, None, None]
+    return x, y
 
 
 def robot_centric_points(
@@ -51,13 +81,7 @@ def robot_centric_points(
         >>> robot_centric_points(np.zeros(3), window=0.8, size=4, forward_offset=0.0)[0, 0].round(2).tolist()
         [-0.3, 0.3]
     """
-    poses = np.asarray(gripper_poses, dtype=float)
-    grid = _local_grid(window, size, forward_offset)
-    c, s = np.cos(poses[..., 2]), np.sin(poses[..., 2])
-    c, s = c[..., None, None], s[..., None, None]
-    x = c * grid[..., 0] - s * grid[..., 1] + poses[..., 0, None, None]
-    y = s * grid[..., 0] + c * grid[..., 1] + poses[..., 1, None, None]
-    return np.stack([x, y], -1)
+    return np.stack(robot_centric_xy(gripper_poses, window, size, forward_offset), -1)
 
 
 def robot_centric_pixels(

@@ -203,19 +203,23 @@ def visible_fractions_batch(
     cx, cy, th = cams[:, 0, None, None], cams[:, 1, None, None], cams[:, 2, None]
     phi = mids + th + math.pi / 2
     rdx, rdy = np.cos(phi), np.sin(phi)  # (B, K)
+    # (vertex-major, (V, B, ...): the reductions over a polygon's edges run across V whole arrays,
+    # many times faster than along a short last axis; max, min and any do not depend on the order)
+    # (contiguous: numpy lays a result out as its inputs are, so the inputs set the layout)
+    vx, vy = np.ascontiguousarray(np.moveaxis(polys, (-1, -2), (0, 1)))  # (V, B, P) each
     e = next_vertices(polys) - polys
-    nx, ny = e[..., 1], -e[..., 0]  # (B, P, V)
-    h = nx * polys[..., 0] + ny * polys[..., 1]
-    nc = nx * cx + ny * cy
-    nd = nx[:, None] * rdx[:, :, None, None] + ny[:, None] * rdy[:, :, None, None]  # (B, K, P, V)
-    num = (h - nc)[:, None]
+    nx, ny = np.ascontiguousarray(np.moveaxis(e[..., 1], -1, 0)), np.ascontiguousarray(np.moveaxis(-e[..., 0], -1, 0))  # (V, B, P)
+    h = nx * vx + ny * vy
+    nc = nx * cx[None, :, :, 0] + ny * cy[None, :, :, 0]
+    nd = nx[:, :, None] * rdx[None, :, :, None] + ny[:, :, None] * rdy[None, :, :, None]  # (V, B, K, P)
+    num = (h - nc)[:, :, None]
     with np.errstate(divide="ignore", invalid="ignore"):
         t = num / nd
     # entering and leaving parameters (the masked max / min as np.where + max / min: the same
     # values, without the masked reduction's slower loop)
-    lower = np.where(nd < 0, t, -np.inf).max(-1)
-    upper = np.where(nd > 0, t, np.inf).min(-1)
-    parallel_out = np.any((nd == 0) & (num < 0), axis=-1)
+    lower = np.where(nd < 0, t, -np.inf).max(0)
+    upper = np.where(nd > 0, t, np.inf).min(0)
+    parallel_out = ((nd == 0) & (num < 0)).any(0)
     hit = (lower <= upper) & (upper > 0) & ~parallel_out
     dist = np.where(hit & ~inside[:, None, :], np.maximum(lower, 0.0), np.inf)  # (B, K, P)
     # each interval's owner is the nearest polygon its ray hits; an object sees the widths it owns
