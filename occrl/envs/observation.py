@@ -163,22 +163,31 @@ def detection_arrays(worlds: Sequence, fractions: Sequence[np.ndarray], poses: S
         "vertices": np.zeros((B, N, V, 2), np.float32),
         "num_vertices": np.zeros((B, N), np.int64),
     }
-    for i, (w, f) in enumerate(zip(worlds, fractions)):
-        n = w.num_objects
-        d = detect(np.asarray(f))
-        out["gripper_pose"][i] = w.gripper_pose()
-        out["gripper_opening"][i, 0] = w.opening
-        out["gripper_closed"][i, 0] = w.closed
+    if not B:
+        return out
+    out["gripper_pose"][:] = [w.gripper_pose() for w in worlds]
+    out["gripper_opening"][:, 0] = [w.opening for w in worlds]
+    out["gripper_closed"][:, 0] = [w.closed for w in worlds]
+    for i, w in enumerate(worlds):
         t = w.target_index
         if t >= 0:  # a recreated world may hold no target: type 0 then, which no object has
             out["target_type"][i, 0] = w.type_ids[t]
             out["target_vertices"][i] = w.padded_vertices[t]
             out["target_num_vertices"][i, 0] = w.num_vertices[t]
-        out["detected"][i, :n] = d
-        out["vertices"][i, :n] = np.where(d[:, None, None], w.padded_vertices, 0.0)
-        out["num_vertices"][i, :n] = np.where(d, w.num_vertices, 0)
-        out["type_id"][i, :n] = np.where(d, w.type_ids, 0)
-        out["pose"][i, :n] = np.where(d[:, None], w.object_poses() if poses is None else poses[i], 0.0)
+    # every world's objects at once: world i's object k goes to row i, slot k
+    counts = [w.num_objects for w in worlds]
+    rows = np.repeat(np.arange(B), counts)
+    slots = np.arange(len(rows)) - np.repeat(np.cumsum([0, *counts[:-1]]), counts)
+    fractions = [np.asarray(f) for f in fractions]
+    if [len(f) for f in fractions] != counts:
+        raise ValueError(f"fractions must hold one value per object of each world ({counts}), got {[len(f) for f in fractions]}")
+    d = detect(np.concatenate(fractions))
+    poses = [w.object_poses() for w in worlds] if poses is None else poses
+    out["detected"][rows, slots] = d
+    out["vertices"][rows, slots] = np.where(d[:, None, None], np.concatenate([w.padded_vertices for w in worlds]), 0.0)
+    out["num_vertices"][rows, slots] = np.where(d, np.concatenate([w.num_vertices for w in worlds]), 0)
+    out["type_id"][rows, slots] = np.where(d, np.concatenate([w.type_ids for w in worlds]), 0)
+    out["pose"][rows, slots] = np.where(d[:, None], np.concatenate([np.asarray(p).reshape(-1, 3) for p in poses]), 0.0)
     return out
 
 
@@ -264,5 +273,5 @@ def world_pixels(worlds: Sequence, size: int = DEFAULT_SIZE) -> torch.Tensor:
     a = detection_arrays(worlds, worlds_visible_fractions(worlds, poses), poses)
     polygons = detected_world_polygons(a["detected"], a["type_id"], a["pose"], a["vertices"], a["num_vertices"], a["target_type"])
     # render_shelf_labels + crop_to_pixels, bit for bit, drawing only the part of the shelf the window shows
-    pixels = DEFAULT_CANVAS.pixel_indices_xy(*robot_centric_xy(a["gripper_pose"].astype(np.float64), size=size))
+    pixels = DEFAULT_CANVAS.pixel_indices_xy(*robot_centric_xy(a["gripper_pose"].astype(np.float64), size=size), overwrite=True)
     return labels_to_pixels(render_labels_at_pixels(a["gripper_pose"], a["gripper_opening"], polygons, *pixels))

@@ -92,17 +92,17 @@ class Canvas:
         and whether they lie on the canvas."""
         return self.pixel_indices_xy(points[..., 0], points[..., 1])
 
-    def pixel_indices_xy(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def pixel_indices_xy(self, x: np.ndarray, y: np.ndarray, overwrite: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """:meth:`pixel_indices` of the points given as their x and y arrays (e.g.
-        :func:`~occrl.envs.robot_frame.robot_centric_xy`): the same indices, without stacking."""
+        :func:`~occrl.envs.robot_frame.robot_centric_xy`): the same indices, without stacking.
+        ``overwrite``: x and y (float64 arrays of the caller's own) may serve as scratch space."""
         h, w = self.shape
-        # (in place on the first result: the same arithmetic as one expression, fewer arrays)
-        col = np.subtract(x, self.x0)
+        # (in place: the same arithmetic as one expression, fewer arrays)
+        col = np.subtract(x, self.x0, out=x if overwrite else None)
         col /= self.resolution
-        col = np.floor(col, out=col).astype(np.int64)
-        row = np.subtract(self.y1, y)
+        row = np.subtract(self.y1, y, out=y if overwrite else None)
         row /= self.resolution
-        row = np.floor(row, out=row).astype(np.int64)
+        col, row = _floor_to_int(col), _floor_to_int(row)
         # (as unsigned, a negative index is larger than any canvas size: one comparison per bound)
         return row, col, (col.view(np.uint64) < w) & (row.view(np.uint64) < h)
 
@@ -121,6 +121,14 @@ class Canvas:
 DEFAULT_CANVAS = Canvas()
 # A tight canvas around the shelf and the space in front of it, for pictures of the true scene.
 SHELF_VIEW = Canvas(x0=-0.32, x1=0.32, y0=-0.32, y1=0.40, resolution=0.0025)
+
+
+def _floor_to_int(values: np.ndarray) -> np.ndarray:
+    """``np.floor(values).astype(np.int64)`` (``values`` may be overwritten): where no value is
+    negative the conversion's truncation is the floor already, and the floor pass is skipped."""
+    if values.size and values.min() >= 0.0:  # (False for NaN: the floor then, as always)
+        return values.astype(np.int64)
+    return np.floor(values, out=values).astype(np.int64)
 
 
 def _pillow_pixels(pixels: np.ndarray, row0: np.ndarray | None = None) -> np.ndarray:
@@ -289,9 +297,10 @@ def _render_regions(gripper_poses, openings, detections, canvas: Canvas, fov: fl
     # every world's objects padded to the same count (spare slots: a wall, cast and never drawn), then the walls
     padded = np.broadcast_to(walls_padded[:1], (len(poses), most + len(walls_padded), *walls_padded.shape[1:])).copy()
     padded[:, most:] = walls_padded
-    for b, (polys, _) in enumerate(detections):
-        if counts[b]:
-            padded[b, : counts[b]] = pad_polygons(polys, C.MAX_VERTICES)
+    if most:  # every world's polygons padded at once, world b's k-th to row b, slot k
+        rows = np.repeat(np.arange(len(counts)), counts)
+        slots = np.arange(len(rows)) - np.repeat(np.cumsum([0, *counts[:-1]]), counts)
+        padded[rows, slots] = pad_polygons([p for polys, _ in detections for p in polys], C.MAX_VERTICES)
     # shadows of detected objects and walls: from the two silhouette vertices away from the camera
     _, _, inside, i_lo, i_hi = angular_extents(padded, poses, with_tangents=True)
     worlds, slots = np.arange(padded.shape[0])[:, None], np.arange(padded.shape[1])[None, :]

@@ -45,7 +45,7 @@ def task_outcome(poses: np.ndarray, held: int | None, target_index: int, fallen:
     or ``fallen`` says it fell; reward -1 per action, -50 more when anything was dropped.
 
     Args:
-        poses: (n, 3) object poses (x, y, theta) in the shelf frame.
+        poses: (n, 3) object poses (x, y, theta) in the shelf frame (an array, or a list of rows).
         held: index of the object held between the fingers, or None.
         target_index: the target's index (-1: no target, e.g. a planner's imagined world).
         fallen: optional (n,) flags of objects that fell off (the 3D world's heights).
@@ -59,7 +59,8 @@ def task_outcome(poses: np.ndarray, held: int | None, target_index: int, fallen:
         >>> task_outcome(poses, held=None, target_index=1).dropped  # object 0 is off the shelf
         (0,)
     """
-    rows = np.asarray(poses).tolist()  # Python floats: the same comparisons, without numpy's per-element cost
+    # Python floats: the same comparisons, without numpy's per-element cost
+    rows = poses if isinstance(poses, list) else np.asarray(poses).tolist()
     retrieved = target_index >= 0 and held == target_index and rows[target_index][1] < C.RETRIEVED_Y
     dropped = []
     for i, (x, y, *_) in enumerate(rows):

@@ -52,13 +52,28 @@ def in_field_of_view(points: np.ndarray, gripper_poses: np.ndarray, fov: float =
 
 
 def pad_polygons(polygons: Sequence[np.ndarray], size: int | None = None) -> np.ndarray:
-    """(P, V, 2) with each polygon padded by repeating its first vertex (zero-length edges)."""
-    vmax = size if size is not None else max(len(p) for p in polygons)
-    out = np.empty((len(polygons), vmax, 2))
-    for k, p in enumerate(polygons):
-        out[k, : len(p)] = p
-        out[k, len(p) :] = p[0]
-    return out
+    """(P, V, 2) float64 with each polygon padded by repeating its first vertex (zero-length
+    edges); V is ``size``, or the most vertices of any polygon.
+
+    Raises:
+        ValueError: if a polygon has no vertex or more than ``size``.
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.visibility import pad_polygons
+        >>> pad_polygons([np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])], 4)[0].tolist()
+        [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [0.0, 0.0]]
+    """
+    lengths = np.array([len(p) for p in polygons], dtype=np.int64)
+    vmax = size if size is not None else int(lengths.max())
+    if not len(lengths):
+        return np.empty((0, vmax, 2))
+    if lengths.min() < 1 or lengths.max() > vmax:
+        raise ValueError(f"polygons must have 1 to {vmax} vertices to pad to {vmax}, got {sorted(set(lengths.tolist()))}")
+    # every polygon's vertices in one array, then one gather: vertex j of polygon k, or its first
+    vertices = np.concatenate([np.asarray(p, dtype=float).reshape(-1, 2) for p in polygons])
+    slots = np.arange(vmax)
+    return vertices[(np.cumsum(lengths) - lengths)[:, None] + np.where(slots < lengths[:, None], slots, 0)]
 
 
 def angular_extents(polys: np.ndarray, cam: np.ndarray, with_tangents: bool = False):

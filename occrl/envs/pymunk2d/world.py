@@ -161,7 +161,10 @@ class ShelfWorld:
             self.padded_vertices[i, : len(v)] = v
             self.padded_vertices[i, len(v) :] = v[0]
         self.num_vertices = np.array([len(v) for v in self.nominal_vertices], dtype=np.int64)
-        self.object_radius = np.array([np.linalg.norm(v, axis=1).max() for v in self.nominal_vertices])
+        # each object's largest vertex distance from its centroid: np.linalg.norm's sqrt(x * x + y * y)
+        # over the padded vertices (the repeated first vertex changes no maximum), for all at once
+        pv = self.padded_vertices
+        self.object_radius = np.sqrt(pv[..., 0] * pv[..., 0] + pv[..., 1] * pv[..., 1]).max(-1, initial=0.0)
         self.opening = C.GRIPPER_STROKE
         self.closed = False
         self.held: int | None = None
@@ -331,11 +334,15 @@ class ShelfWorld:
 
     def object_poses(self) -> np.ndarray:
         """(n, 3) centroid poses of all objects."""
+        return np.array(self._object_pose_rows()).reshape(-1, 3)
+
+    def _object_pose_rows(self) -> list[list[float]]:
+        """:meth:`object_poses` as Python floats, one [x, y, theta] per object."""
         out = []
         for b in self.bodies:
             p = _cp.cpBodyGetPosition(b._body)
             out.append([p.x, p.y, _cp.cpBodyGetAngle(b._body)])
-        return np.array(out).reshape(-1, 3)
+        return out
 
     def object_world_polygons(self) -> list[np.ndarray]:
         """Each object's nominal polygon (its type's shape) at its current pose."""
@@ -404,7 +411,9 @@ class ShelfWorld:
         self._cold_start()
 
         # Target pose of the control body (workspace-limited), reached at constant velocity.
-        x, y, th = self.gripper_pose()
+        g = self.gripper._body  # (its pose as Python floats: the values of gripper_pose())
+        p = _cp.cpBodyGetPosition(g)
+        x, y, th = p.x, p.y, _cp.cpBodyGetAngle(g)
         fwd, lat, rot = a[0] * C.MAX_FORWARD, a[1] * C.MAX_LATERAL, a[2] * C.MAX_ROTATION
         c, s = math.cos(th), math.sin(th)
         tx = min(max(x + c * lat - s * fwd, C.GRIPPER_X_LIMITS[0]), C.GRIPPER_X_LIMITS[1])
@@ -482,7 +491,7 @@ class ShelfWorld:
         return bool(touching)
 
     def _outcome(self) -> StepOutcome:
-        return task_outcome(self.object_poses(), self.held, self.target_index)
+        return task_outcome(self._object_pose_rows(), self.held, self.target_index)
 
     def _perturb(self) -> None:
         lvl, rng = self.noise, self.rng
