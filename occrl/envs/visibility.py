@@ -184,18 +184,22 @@ def visible_fractions_batch(
     W, V = occluder_polygons.shape[0], occluder_polygons.shape[1]
     P = max(counts, default=0) + W
     # every camera's objects then the occluders, padded with inert copies of the first occluder
-    # (marked 'inside' below: they neither cut the field of view nor own a ray)
+    # (marked 'inside' below: they neither cut the field of view nor own a ray); every camera at
+    # once: camera b's object k to row b, slot k, its occluders to the slots from n_b on
+    n = np.array(counts, dtype=np.int64)
+    rows = np.repeat(np.arange(B), counts)
+    slots = np.arange(len(rows)) - np.repeat(np.cumsum(n) - n, counts)
+    spare = np.arange(P) >= (n + W)[:, None]  # (B, P): each camera's slots past its occluders
     polys = np.empty((B, P, V, 2))
-    inert = np.zeros((B, P), bool)
-    filler = occluder_polygons[0] if W else np.zeros((V, 2))
-    for b, objs in enumerate(object_polygons):
-        n = counts[b]
-        polys[b, :n] = objs
-        polys[b, n : n + W] = occluder_polygons
-        polys[b, n + W :] = filler
-        inert[b, n + W :] = True
-        if hidden[b] is not None:
-            inert[b, hidden[b]] = True
+    polys[spare] = occluder_polygons[0] if W else 0.0
+    if len(rows):
+        polys[rows, slots] = np.concatenate([np.asarray(o, dtype=float).reshape(-1, V, 2) for o in object_polygons])
+    if W:
+        polys[np.arange(B)[:, None], (n[:, None] + np.arange(W))] = occluder_polygons
+    inert = spare.copy()
+    for b, k in enumerate(hidden):
+        if k is not None:
+            inert[b, k] = True
     cams = np.asarray(gripper_poses, dtype=float).reshape(B, 3)
     lo, hi, inside = angular_extents(polys, cams)
     inside = inside | inert
@@ -244,14 +248,14 @@ def visible_fractions_batch(
     visible = np.bincount((owner + P * np.arange(B)[:, None])[owned], weights=widths[owned], minlength=B * P).reshape(B, P)
     extent = hi - lo
     frac = np.minimum(np.maximum(np.where(extent > 0, visible / np.maximum(extent, 1e-12), 0.0), 0.0), 1.0)
-    out = []
-    for b in range(B):
-        n = counts[b]
-        f = frac[b, :n].copy() if in_view[b, :n].any() else np.zeros(n)  # an array of its own, as before
-        if hidden[b] is not None:
-            f[hidden[b]] = 0.0
-        out.append(f)
-    return out
+    # each camera's objects' fractions (all 0 where none of them is in view), an array of its own
+    # (pieces of one new array), the hidden object's 0
+    seen = (in_view & (np.arange(P) < n[:, None])).any(1)
+    frac = np.where(seen[:, None], frac, 0.0)
+    for b, k in enumerate(hidden):
+        if k is not None:
+            frac[b, k] = 0.0
+    return np.split(frac[rows, slots], np.cumsum(n)[:-1]) if B else []
 
 
 def detect(fractions: np.ndarray, threshold: float = C.DETECTION_THRESHOLD) -> np.ndarray:
