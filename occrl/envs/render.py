@@ -455,12 +455,18 @@ def render_true_scene(
 
 
 _PALETTE_CHANNELS = np.ascontiguousarray((PALETTE.astype(np.float32) / 255.0).T)  # (3, classes)
+_PALETTE_END_TO_END = _PALETTE_CHANNELS.reshape(-1)  # channel c's colour of label k at c * classes + k
+_CHANNEL_OFFSETS = (len(PALETTE) * np.arange(3)).astype(np.uint8)
 
 
 def labels_to_pixels(labels: np.ndarray) -> torch.Tensor:
     """(B, S, S) labels -> (B, 3, S, S) float32 colours in [0, 1], the network input.
-    (One ``np.take`` per channel into the output: ~3x faster than numpy's fancy indexing with a
-    transpose on 12 x 64 x 64 labels, which is itself several times faster than torch's.)
+    (One ``np.take`` from the three channels' palettes laid end to end, each pixel's label offset
+    to its channel's: faster than a take per channel into the channel-strided output, and than
+    numpy's fancy indexing with a transpose, itself several times faster than torch's.)
+
+    Raises:
+        ValueError: if a label is not one of :data:`LABELS`' values.
 
     Examples:
         >>> import numpy as np
@@ -470,9 +476,13 @@ def labels_to_pixels(labels: np.ndarray) -> torch.Tensor:
         (torch.Size([2, 3, 64, 64]), torch.float32, 1.0)
     """
     labels = np.asarray(labels)
+    if labels.size and ((labels.dtype.kind != "u" and labels.min() < 0) or labels.max() >= len(PALETTE)):
+        raise ValueError(
+            f"labels must be in [0, {len(PALETTE)}) (occrl.envs.render.LABELS), got values in [{labels.min()}, {labels.max()}]"
+        )
     out = np.empty((labels.shape[0], 3, *labels.shape[1:]), dtype=np.float32)
-    for channel in range(3):
-        np.take(_PALETTE_CHANNELS[channel], labels, out=out[:, channel])
+    offsets = _CHANNEL_OFFSETS.reshape(1, 3, *[1] * (labels.ndim - 1))
+    np.take(_PALETTE_END_TO_END, labels[:, None] + offsets, out=out, mode="clip")  # (in range: checked above)
     return torch.from_numpy(out)
 
 

@@ -125,3 +125,21 @@ def test_label_maps_come_out_writable():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         torch.from_numpy(labels)
+
+
+def test_labels_to_pixels_colours_every_label_and_refuses_others():
+    """Each label's pixel carries its palette colour in every channel (the one gather over the
+    channels' palettes laid end to end), for uint8 and int64 labels; a label outside LABELS is
+    refused with a message naming the allowed range."""
+    from occrl.envs.render import LABELS, labels_to_pixels
+
+    for dtype in (np.uint8, np.int64):
+        labels = np.tile(np.arange(len(PALETTE), dtype=dtype), (2, 3, 1))  # (2, 3, 7)
+        px = labels_to_pixels(labels)
+        assert px.shape == (2, 3, 3, len(PALETTE)) and px.dtype == torch.float32
+        expected = PALETTE[labels].astype(np.float32) / 255.0  # (2, 3, 7, 3)
+        assert np.array_equal(px.numpy(), expected.transpose(0, 3, 1, 2))
+    assert len(LABELS) == len(PALETTE)
+    for bad in (np.full((1, 4, 4), len(PALETTE), np.uint8), np.full((1, 4, 4), -1, np.int64)):
+        with pytest.raises(ValueError, match=r"labels must be in \[0, 7\)"):
+            labels_to_pixels(bad)

@@ -258,7 +258,8 @@ class ShelfWorld:
             # directly: the same C calls pymunk's remove and add make, without their overhead.
             for shape in self._dynamic_shapes:
                 _cp.cpSpaceRemoveShape(space._space, shape._shape)
-            space.remove(*self._constraints)
+            if self._constraints:  # (pymunk's remove and add cost even with nothing to do)
+                space.remove(*self._constraints)
         _cp.cpSpaceSetShapeIDCounter(space._space, self._shape_id_base)
         ps = self.physics
         if joint_reset.AVAILABLE:  # the drive and floor joints are kept, their impulses zeroed: as new ones
@@ -300,7 +301,8 @@ class ShelfWorld:
         if self._shapes_in_space:
             for shape in self._dynamic_shapes:
                 _cp.cpSpaceAddShape(space._space, shape._shape)
-            space.add(*cons)
+            if cons:
+                space.add(*cons)
         else:
             space.add(*self._dynamic_shapes, *cons)
         self._constraints = cons
