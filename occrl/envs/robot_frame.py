@@ -43,11 +43,15 @@ def robot_centric_xy(
 
     Examples:
         >>> import numpy as np
-        >>> from occrl.envs.robot_frame import robot_centric_points, robot_centric_xy
+        >>> from occrl.envs.robot_frame import robot_centric_pixels, robot_centric_xy
         >>> poses = np.array([[0.1, -0.1, 0.3], [0.0, 0.0, -1.0]])
         >>> x, y = robot_centric_xy(poses)
-        >>> x.shape, bool((np.stack([x, y], -1) == robot_centric_points(poses)).all())
-        ((2, 64, 64), True)
+        >>> x.shape
+        (2, 64, 64)
+        >>> # the inverse map takes row 1, column 2 of each window back to that pixel's centre
+        >>> points = np.stack([x[:, 1, 2], y[:, 1, 2]], -1)[:, None]
+        >>> robot_centric_pixels(points, poses).round(6).tolist()
+        [[[2.0, 1.0]], [[2.0, 1.0]]]
     """
     poses = np.asarray(gripper_poses, dtype=float)
     xl, yl = _local_axes(window, size, forward_offset)

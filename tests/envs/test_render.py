@@ -143,3 +143,20 @@ def test_labels_to_pixels_colours_every_label_and_refuses_others():
     for bad in (np.full((1, 4, 4), len(PALETTE), np.uint8), np.full((1, 4, 4), -1, np.int64)):
         with pytest.raises(ValueError, match=r"labels must be in \[0, 7\)"):
             labels_to_pixels(bad)
+
+
+def test_robot_centric_points_are_the_per_pixel_rotation_bit_for_bit():
+    """The window's points, computed from a column's and a row's products broadcast
+    (robot_centric_xy), equal the per-pixel rotation c x - s y + px, s x + c y + py of the window's
+    grid bit for bit, as the pixel indices of the observation pipeline rely on."""
+    from occrl.envs.robot_frame import robot_centric_points
+
+    rng = np.random.default_rng(3)
+    poses = np.stack([rng.uniform(-0.3, 0.3, 50), rng.uniform(-0.3, 0.5, 50), rng.uniform(-3.0, 3.0, 50)], 1)
+    window, size, offset = 0.8, 64, 0.15
+    k = np.arange(size) + 0.5
+    gx = np.broadcast_to(((k - size / 2) * (window / size))[None, :], (size, size))
+    gy = np.broadcast_to((offset + (size / 2 - k) * (window / size))[:, None], (size, size))
+    c, s = np.cos(poses[:, 2])[:, None, None], np.sin(poses[:, 2])[:, None, None]
+    expected = np.stack([c * gx - s * gy + poses[:, 0, None, None], s * gx + c * gy + poses[:, 1, None, None]], -1)
+    assert np.array_equal(robot_centric_points(poses, window, size, offset), expected)

@@ -78,3 +78,31 @@ def test_batched_visibility_equals_the_per_camera_function_bit_for_bit():
             assert got[0] == 0.0 and np.array_equal(got[1:], rest)
         else:
             assert np.array_equal(got, visible_fractions(objs, pose, WALLS_PADDED)) if len(objs) else got.shape == (0,)
+
+
+def test_pad_polygons_pads_with_the_first_vertex_and_refuses_what_does_not_fit():
+    """Every polygon padded to the size by repeating its first vertex (one gather for all), and
+    a polygon with no vertex or more than the size refused with a message."""
+    from occrl.envs.visibility import pad_polygons
+
+    tri = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    quad = np.array([[2.0, 2.0], [3.0, 2.0], [3.0, 3.0], [2.0, 3.0]])
+    out = pad_polygons([tri, quad], 5)
+    assert out.shape == (2, 5, 2) and out.dtype == np.float64
+    assert np.array_equal(out[0], np.concatenate([tri, tri[:1], tri[:1]]))
+    assert np.array_equal(out[1], np.concatenate([quad, quad[:1]]))
+    assert pad_polygons([tri, quad]).shape == (2, 4, 2)  # the most vertices of any
+    assert pad_polygons([], 8).shape == (0, 8, 2)
+    for bad in ([quad], [np.zeros((0, 2))]):
+        with pytest.raises(ValueError, match="vertices to pad to 3"):
+            pad_polygons(bad, 3)
+
+
+def test_detection_arrays_refuse_fractions_that_do_not_match_the_worlds():
+    from occrl.envs import Scene, ShelfWorld
+    from occrl.envs.observation import detection_arrays, worlds_visible_fractions
+
+    worlds = [ShelfWorld(Scene.sample(stage=2, seed=s)) for s in range(2)]
+    fractions = worlds_visible_fractions(worlds)
+    with pytest.raises(ValueError, match="one value per object of each world"):
+        detection_arrays(worlds, [fractions[0][:-1], fractions[1]])
