@@ -22,6 +22,7 @@ __all__ = [
     "polygons_overlap",
     "point_in_convex_polygon",
     "clip_to_band",
+    "ragged_positions",
 ]
 
 
@@ -248,3 +249,18 @@ def clip_to_band(vertices: np.ndarray, y0: float, y1: float) -> np.ndarray:
         if not pts:
             break
     return np.array(pts, dtype=float).reshape(-1, 2)
+
+
+def ragged_positions(counts) -> tuple[np.ndarray, np.ndarray]:
+    """Where each item of several lists laid end to end goes in a padded (lists, slots) array:
+    list ``counts[b]`` items long b's k-th item to row b, slot k (for filling padded per-world
+    arrays in one assignment).
+
+    Examples:
+        >>> from occrl.envs.geometry import ragged_positions
+        >>> [r.tolist() for r in ragged_positions([2, 0, 3])]
+        [[0, 0, 2, 2, 2], [0, 1, 0, 1, 2]]
+    """
+    counts = np.asarray(counts, dtype=np.int64).reshape(-1)
+    rows = np.repeat(np.arange(len(counts)), counts)
+    return rows, np.arange(len(rows)) - np.repeat(np.cumsum(counts) - counts, counts)

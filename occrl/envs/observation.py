@@ -30,7 +30,7 @@ import numpy as np
 import torch
 
 from occrl.envs import world_constants as C
-from occrl.envs.geometry import transform_polygons
+from occrl.envs.geometry import ragged_positions, transform_polygons
 from occrl.envs.render import DEFAULT_CANVAS, Canvas, labels_to_pixels, render_labels_at_pixels, render_labels_batch
 from occrl.envs.robot_frame import DEFAULT_FORWARD_OFFSET, DEFAULT_SIZE, DEFAULT_WINDOW, robot_centric_points, robot_centric_xy
 from occrl.envs.shelf_geometry import SHELF_WALLS
@@ -176,8 +176,7 @@ def detection_arrays(worlds: Sequence, fractions: Sequence[np.ndarray], poses: S
             out["target_num_vertices"][i, 0] = w.num_vertices[t]
     # every world's objects at once: world i's object k goes to row i, slot k
     counts = [w.num_objects for w in worlds]
-    rows = np.repeat(np.arange(B), counts)
-    slots = np.arange(len(rows)) - np.repeat(np.cumsum([0, *counts[:-1]]), counts)
+    rows, slots = ragged_positions(counts)
     fractions = [np.asarray(f) for f in fractions]
     if [len(f) for f in fractions] != counts:
         raise ValueError(f"fractions must hold one value per object of each world ({counts}), got {[len(f) for f in fractions]}")

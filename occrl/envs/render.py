@@ -20,6 +20,7 @@ import torch
 from PIL import Image
 
 from occrl.envs import world_constants as C
+from occrl.envs.geometry import ragged_positions
 from occrl.envs.visibility import pad_polygons, angular_extents
 from occrl.envs.shelf_geometry import SHELF_WALLS, gripper_polygons_batch
 
@@ -298,9 +299,7 @@ def _render_regions(gripper_poses, openings, detections, canvas: Canvas, fov: fl
     padded = np.broadcast_to(walls_padded[:1], (len(poses), most + len(walls_padded), *walls_padded.shape[1:])).copy()
     padded[:, most:] = walls_padded
     if most:  # every world's polygons padded at once, world b's k-th to row b, slot k
-        rows = np.repeat(np.arange(len(counts)), counts)
-        slots = np.arange(len(rows)) - np.repeat(np.cumsum([0, *counts[:-1]]), counts)
-        padded[rows, slots] = pad_polygons([p for polys, _ in detections for p in polys], C.MAX_VERTICES)
+        padded[ragged_positions(counts)] = pad_polygons([p for polys, _ in detections for p in polys], C.MAX_VERTICES)
     # shadows of detected objects and walls: from the two silhouette vertices away from the camera
     _, _, inside, i_lo, i_hi = angular_extents(padded, poses, with_tangents=True)
     worlds, slots = np.arange(padded.shape[0])[:, None], np.arange(padded.shape[1])[None, :]

@@ -19,7 +19,7 @@ from typing import Sequence
 import numpy as np
 
 from occrl.envs import world_constants as C
-from occrl.envs.geometry import next_vertices
+from occrl.envs.geometry import next_vertices, ragged_positions
 
 __all__ = ["visible_fractions", "visible_fractions_batch", "detect", "camera_pose", "angular_extents", "pad_polygons", "in_field_of_view"]
 
@@ -187,8 +187,7 @@ def visible_fractions_batch(
     # (marked 'inside' below: they neither cut the field of view nor own a ray); every camera at
     # once: camera b's object k to row b, slot k, its occluders to the slots from n_b on
     n = np.array(counts, dtype=np.int64)
-    rows = np.repeat(np.arange(B), counts)
-    slots = np.arange(len(rows)) - np.repeat(np.cumsum(n) - n, counts)
+    rows, slots = ragged_positions(counts)
     spare = np.arange(P) >= (n + W)[:, None]  # (B, P): each camera's slots past its occluders
     polys = np.empty((B, P, V, 2))
     polys[spare] = occluder_polygons[0] if W else 0.0
