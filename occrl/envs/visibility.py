@@ -218,7 +218,7 @@ def visible_fractions_batch(
         mids = np.where(used, 0.5 * (cuts[:, :K] + cuts[:, 1 : K + 1]), 0.0)
         widths = np.where(used, cuts[:, 1 : K + 1] - cuts[:, :K], 0.0)
     # one ray per interval against every polygon (Cyrus-Beck clipping, broadcast over cameras)
-    cx, cy, th = cams[:, 0, None, None], cams[:, 1, None, None], cams[:, 2, None]
+    cx, cy, th = cams[:, 0, None], cams[:, 1, None], cams[:, 2, None]  # (B, 1)
     phi = mids + th + math.pi / 2
     rdx, rdy = np.cos(phi), np.sin(phi)  # (B, K)
     # (vertex-major, (V, B, ...): the reductions over a polygon's edges run across V whole arrays,
@@ -228,7 +228,7 @@ def visible_fractions_batch(
     e = next_vertices(polys) - polys
     nx, ny = np.ascontiguousarray(np.moveaxis(e[..., 1], -1, 0)), np.ascontiguousarray(np.moveaxis(-e[..., 0], -1, 0))  # (V, B, P)
     h = nx * vx + ny * vy
-    nc = nx * cx[None, :, :, 0] + ny * cy[None, :, :, 0]
+    nc = nx * cx + ny * cy
     nd = nx[:, :, None] * rdx[None, :, :, None] + ny[:, :, None] * rdy[None, :, :, None]  # (V, B, K, P)
     num = (h - nc)[:, :, None]
     with np.errstate(divide="ignore", invalid="ignore"):

@@ -330,9 +330,13 @@ class ShelfWorld:
 
     # ------------------------------------------------------------------ state
     def gripper_pose(self) -> np.ndarray:
+        return np.array(self._gripper_xyth())
+
+    def _gripper_xyth(self) -> tuple[float, float, float]:
+        """:meth:`gripper_pose` as Python floats."""
         g = self.gripper._body
         p = _cp.cpBodyGetPosition(g)
-        return np.array([p.x, p.y, _cp.cpBodyGetAngle(g)])
+        return p.x, p.y, _cp.cpBodyGetAngle(g)
 
     def object_poses(self) -> np.ndarray:
         """(n, 3) centroid poses of all objects."""
@@ -413,9 +417,7 @@ class ShelfWorld:
         self._cold_start()
 
         # Target pose of the control body (workspace-limited), reached at constant velocity.
-        g = self.gripper._body  # (its pose as Python floats: the values of gripper_pose())
-        p = _cp.cpBodyGetPosition(g)
-        x, y, th = p.x, p.y, _cp.cpBodyGetAngle(g)
+        x, y, th = self._gripper_xyth()
         fwd, lat, rot = a[0] * C.MAX_FORWARD, a[1] * C.MAX_LATERAL, a[2] * C.MAX_ROTATION
         c, s = math.cos(th), math.sin(th)
         tx = min(max(x + c * lat - s * fwd, C.GRIPPER_X_LIMITS[0]), C.GRIPPER_X_LIMITS[1])
