@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import math
 
+from typing import Sequence
+
 import numpy as np
 
 __all__ = [
@@ -20,9 +22,12 @@ __all__ = [
     "transform_points",
     "transform_polygons",
     "polygons_overlap",
+    "edge_normals",
+    "separated_along",
     "point_in_convex_polygon",
     "clip_to_band",
     "ragged_positions",
+    "pad_polygons",
 ]
 
 
@@ -176,13 +181,38 @@ def transform_polygons(vertices: np.ndarray, poses: np.ndarray) -> np.ndarray:
     return np.stack([x, y], -1)
 
 
-def _separated_along_edges(a: np.ndarray, b: np.ndarray, gap: float) -> bool:
-    e = next_vertices(a) - a
+def edge_normals(polygon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A convex CCW polygon's (V, 2) unit outward edge normals and (V,) offsets: each edge's
+    offset is the polygon's maximum along its normal. What the separating-axis test
+    (:func:`separated_along`, :func:`polygons_overlap`) reads of a polygon; computed once, a
+    polygon can be tested against many.
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.geometry import edge_normals
+        >>> normals, offsets = edge_normals(np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=float))
+        >>> normals.tolist() == [[0, -1], [1, 0], [0, 1], [-1, 0]], offsets.tolist()  # below, right, above, left
+        (True, [0.0, 1.0, 1.0, 0.0])
+    """
+    e = next_vertices(polygon) - polygon
     n = np.stack([e[:, 1], -e[:, 0]], axis=1)  # outward normals of a CCW polygon
     n /= np.linalg.norm(n, axis=1, keepdims=True)
-    a_max = np.einsum("ij,ij->i", n, a)  # each edge's own offset is the max of a along its normal
-    b_min = (b @ n.T).min(axis=0)
-    return bool(np.any(b_min - a_max >= gap))
+    return n, np.einsum("ij,ij->i", n, polygon)  # each edge's own offset is the max of the polygon along its normal
+
+
+def separated_along(normals: np.ndarray, offsets: np.ndarray, points: np.ndarray, gap: float = 0.0) -> bool:
+    """Whether ``points`` (..., 2) lie at least ``gap`` beyond one edge of the polygon whose
+    :func:`edge_normals` these are (one half of the separating-axis test).
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.geometry import edge_normals, separated_along
+        >>> square = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=float)
+        >>> separated_along(*edge_normals(square), square + [1.5, 0]), separated_along(*edge_normals(square), square + [0.5, 0])
+        (True, False)
+    """
+    b_min = (points @ normals.T).min(axis=0)
+    return bool(np.any(b_min - offsets >= gap))
 
 
 def polygons_overlap(a: np.ndarray, b: np.ndarray, clearance: float = 0.0) -> bool:
@@ -200,7 +230,7 @@ def polygons_overlap(a: np.ndarray, b: np.ndarray, clearance: float = 0.0) -> bo
         >>> polygons_overlap(square, square + [1.1, 0], clearance=0.2)  # closer than 0.2
         True
     """
-    return not (_separated_along_edges(a, b, clearance) or _separated_along_edges(b, a, clearance))
+    return not (separated_along(*edge_normals(a), b, clearance) or separated_along(*edge_normals(b), a, clearance))
 
 
 def point_in_convex_polygon(points: np.ndarray, vertices: np.ndarray) -> np.ndarray:
@@ -262,5 +292,39 @@ def ragged_positions(counts) -> tuple[np.ndarray, np.ndarray]:
         [[0, 0, 2, 2, 2], [0, 1, 0, 1, 2]]
     """
     counts = np.asarray(counts, dtype=np.int64).reshape(-1)
-    rows = np.repeat(np.arange(len(counts)), counts)
-    return rows, np.arange(len(rows)) - np.repeat(np.cumsum(counts) - counts, counts)
+    if len(counts) and counts.min() < 0:
+        raise ValueError(f"counts must be >= 0, got {counts.tolist()}")
+    # the slots each list fills, in C order (row by row, slot by slot): their indices in one call
+    rows, slots = np.nonzero(np.arange(counts.max() if len(counts) else 0) < counts[:, None])
+    return rows, slots
+
+
+def pad_polygons(polygons: Sequence[np.ndarray], size: int | None = None) -> np.ndarray:
+    """(P, V, 2) float64 with each polygon padded by repeating its first vertex (zero-length
+    edges); V is ``size``, or the most vertices of any polygon.
+
+    Raises:
+        ValueError: if a polygon has no vertex or more than ``size``.
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.geometry import pad_polygons
+        >>> pad_polygons([np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])], 4)[0].tolist()
+        [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [0.0, 0.0]]
+    """
+    counts = [len(p) for p in polygons]
+    vmax = size if size is not None else max(counts)
+    if not counts:
+        return np.empty((0, vmax, 2))
+    if min(counts) < 1 or max(counts) > vmax:
+        raise ValueError(f"polygons must have 1 to {vmax} vertices to pad to {vmax}, got {sorted(set(counts))}")
+    # every polygon's vertices in one array, then one gather: vertex j of polygon k, or its first
+    try:  # (n_k, 2) arrays or nested lists: joined as they are
+        vertices = np.concatenate(polygons, dtype=float)
+    except ValueError:
+        vertices = None
+    if vertices is None or vertices.shape != (sum(counts), 2):  # anything else: each polygon as (-1, 2)
+        vertices = np.concatenate([np.asarray(p, dtype=float).reshape(-1, 2) for p in polygons])
+    lengths = np.array(counts, dtype=np.int64)
+    slots = np.arange(vmax)
+    return vertices.take((np.cumsum(lengths) - lengths)[:, None] + np.where(slots < lengths[:, None], slots, 0), axis=0)

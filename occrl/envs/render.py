@@ -20,8 +20,8 @@ import torch
 from PIL import Image
 
 from occrl.envs import world_constants as C
-from occrl.envs.geometry import ragged_positions
-from occrl.envs.visibility import pad_polygons, angular_extents
+from occrl.envs.geometry import pad_polygons
+from occrl.envs.visibility import angular_extents
 from occrl.envs.shelf_geometry import SHELF_WALLS, gripper_polygons_batch
 
 __all__ = [
@@ -292,62 +292,77 @@ def _render_regions(gripper_poses, openings, detections, canvas: Canvas, fov: fl
     row1 - 1, columns 0 to col1 - 1, as raw uint8 bytes (row1 - row0 rows of col1)."""
     poses = np.asarray(gripper_poses, dtype=float).reshape(-1, 3)
     openings = np.asarray(openings, dtype=float).reshape(-1)
-    _, _, walls_padded = _static_pixels(canvas)
+    B = len(poses)
+    walls_padded = _static_pixels(canvas)[2]
     counts = [len(polys) for polys, _ in detections]
     most = max(counts, default=0)
-    # every world's objects padded to the same count (spare slots: a wall, cast and never drawn), then the walls
-    padded = np.broadcast_to(walls_padded[:1], (len(poses), most + len(walls_padded), *walls_padded.shape[1:])).copy()
+    # every world's objects in slots 0 to n_b - 1 (spare slots up to the most: a wall, cast and
+    # never drawn), then the walls
+    own = np.arange(most) < np.array(counts, dtype=np.int64).reshape(-1, 1)  # (C order: world b's objects in order)
+    padded = np.empty((B, most + len(walls_padded), *walls_padded.shape[1:]))
     padded[:, most:] = walls_padded
-    if most:  # every world's polygons padded at once, world b's k-th to row b, slot k
-        padded[ragged_positions(counts)] = pad_polygons([p for polys, _ in detections for p in polys], C.MAX_VERTICES)
+    padded[:, :most][~own] = walls_padded[0]
+    if most:
+        padded[:, :most][own] = pad_polygons([p for polys, _ in detections for p in polys], C.MAX_VERTICES)
+    P, V = padded.shape[1], padded.shape[2]
+    arc = _FOV_ARC[fov] if fov in _FOV_ARC else _fov_arc(fov)
+    # every point any world draws, in one (B, N, 2) array: the field of view's outline, the
+    # shadows, the objects and the gripper's parts (each a view), for one conversion to pixels
+    sizes = (1 + len(arc), 4 * P, V * most, 4 * _GRIPPER_PARTS)
+    ends = np.cumsum(sizes).tolist()
+    points = np.empty((B, ends[-1], 2))
+    fov_out, shadows, objects, gripper = (points[:, e - n : e] for n, e in zip(sizes, ends))
     # shadows of detected objects and walls: from the two silhouette vertices away from the camera
     _, _, inside, i_lo, i_hi = angular_extents(padded, poses, with_tangents=True)
-    worlds, slots = np.arange(padded.shape[0])[:, None], np.arange(padded.shape[1])[None, :]
+    worlds, slots = np.arange(B)[:, None], np.arange(P)[None, :]
     v_lo, v_hi = padded[worlds, slots, i_lo], padded[worlds, slots, i_hi]
     cams = poses[:, None, :2]
     d_lo, d_hi = v_lo - cams, v_hi - cams
+    shadows = shadows.reshape(B, P, 4, 2)  # (a view: the points' slots as (v_lo, v_hi, far hi, far lo))
+    shadows[:, :, 0], shadows[:, :, 1] = v_lo, v_hi
     # (the lengths as np.linalg.norm computes them, a square root of the summed squares, without its wrapper)
-    f_lo = v_lo + _FAR * d_lo / np.maximum(np.sqrt(np.add.reduce(d_lo * d_lo, -1, keepdims=True)), 1e-9)
-    f_hi = v_hi + _FAR * d_hi / np.maximum(np.sqrt(np.add.reduce(d_hi * d_hi, -1, keepdims=True)), 1e-9)
-    shadow_pixels = canvas.to_pixels(np.stack([v_lo, v_hi, f_hi, f_lo], 2))
-    arc = _FOV_ARC[fov] if fov in _FOV_ARC else _fov_arc(fov)
+    np.add(v_hi, _FAR * d_hi / np.maximum(np.sqrt(np.add.reduce(d_hi * d_hi, -1, keepdims=True)), 1e-9), out=shadows[:, :, 2])
+    np.add(v_lo, _FAR * d_lo / np.maximum(np.sqrt(np.add.reduce(d_lo * d_lo, -1, keepdims=True)), 1e-9), out=shadows[:, :, 3])
     # outside the field of view: the camera, then an arc around the back
     # (each world's rotation from math.cos / math.sin and one stacked matmul: the values of world by world)
     axes = [th + math.pi / 2 for th in poses[:, 2].tolist()]
     rotations = np.array([[[math.cos(a), math.sin(a)], [-math.sin(a), math.cos(a)]] for a in axes]).reshape(-1, 2, 2)
-    fov_out = np.empty((len(poses), 1 + len(arc), 2))
     fov_out[:, 0] = poses[:, :2]
     fov_out[:, 1:] = poses[:, None, :2] + _FAR * np.matmul(arc, rotations)
-    # Pillow's integer coordinates of every world's polygons, a few calls for all worlds
-    # (elementwise arithmetic: the same values as world by world)
-    row0s = np.array([region[0] for region in regions], dtype=np.int64)
-    fov_ints = _pillow_pixels(canvas.to_pixels(fov_out), row0s)
-    shadow_ints = _pillow_pixels(shadow_pixels, row0s)
-    object_ints = _pillow_pixels(canvas.to_pixels(padded[:, :most]), row0s)
-    gripper_ints = _pillow_pixels(canvas.to_pixels(_gripper_world_polygons(poses, openings)), row0s)
-    walls, edge, _ = _static_pixels(canvas)
-    shifts = np.stack([np.zeros_like(row0s), row0s], -1)  # each world's rows start at its region
-    walls_ints = _pillow_pixels(walls)[None] - shifts[:, None, None]
-    edge_ints = _pillow_pixels(edge)[None] - shifts[:, None]
+    objects.reshape(B, most, V, 2)[...] = padded[:, :most]
+    _gripper_world_polygons(poses, openings, out=gripper.reshape(B, _GRIPPER_PARTS, 4, 2))
+    # Pillow's integer coordinates of every world's points in one conversion (canvas.to_pixels'
+    # arithmetic in place, then the cast that truncates as Pillow does), each world's rows from
+    # its region's first row (elementwise: the same values as world by world)
+    x, y = points[..., 0], points[..., 1]
+    x -= canvas.x0
+    x /= canvas.resolution
+    x -= 0.5
+    np.subtract(canvas.y1, y, out=y)
+    y /= canvas.resolution
+    y -= 0.5
+    ints = points.astype(np.int64)
+    ints[..., 1] -= np.array([region[0] for region in regions], dtype=np.int64)[:, None]
     # every world's coordinates as Python lists in one conversion each (Pillow takes lists)
-    fov_xy, shadow_xy, object_xy, gripper_xy, walls_xy, edge_xy = map(
-        _xy_lists, (fov_ints, shadow_ints, object_ints, gripper_ints, walls_ints, edge_ints)
+    fov_xy, shadow_xy, object_xy, gripper_xy = (
+        _xy_lists(ints[:, e - n : e].reshape(B, -1, k, 2)) for n, e, k in zip(sizes, ends, (sizes[0], 4, V, 4))
     )
     casts = (~inside).tolist()
-    P = padded.shape[1]
+    static_rows = _STATIC_LISTS.setdefault(canvas, {})  # the walls' and edge's lists by region row
     for b, (polys, is_target) in enumerate(detections):
         row0, row1, col1 = regions[b]
+        walls_xy, edge_xy = static_rows[row0] if row0 in static_rows else _static_lists(canvas, row0)
         # Pillow's core image and drawing objects, as Image.new and ImageDraw.Draw make them,
         # without their Python wrappers (the same pixels)
         size = (col1, row1 - row0)
         image = Image.core.fill("L", size, LABELS["observable"])
         draw = Image.core.draw(image, 0)
-        draw.draw_polygon(fov_xy[b], LABELS["occluded"], 1)
+        draw.draw_polygon(fov_xy[b][0], LABELS["occluded"], 1)
         for k in [*range(counts[b]), *range(most, P)]:  # this world's objects, then the walls
             if casts[b][k]:
                 draw.draw_polygon(shadow_xy[b][k], LABELS["occluded"], 1)
-        objects = [xy[: 2 * len(p)] for xy, p in zip(object_xy[b], polys)]
-        _draw_shelf_and_bodies(draw, walls_xy[b], edge_xy[b], objects, is_target, gripper_xy[b])
+        objects_b = [xy[: 2 * len(p)] for xy, p in zip(object_xy[b], polys)]
+        _draw_shelf_and_bodies(draw, walls_xy, edge_xy, objects_b, is_target, gripper_xy[b])
         yield _image_bytes(image, size)
 
 
@@ -370,14 +385,15 @@ def _image_bytes(image, size: tuple[int, int]) -> bytes:
     return chunks[0] if len(chunks) == 1 else b"".join(chunks)
 
 
-def _gripper_world_polygons(poses: np.ndarray, openings: np.ndarray) -> np.ndarray:
+def _gripper_world_polygons(poses: np.ndarray, openings: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
     """(B, parts, 4, 2) shelf-frame gripper outlines (:func:`gripper_polygons`) at poses (B, 3)
-    with openings (B,); :func:`~occrl.envs.geometry.transform_points` world by world, the same values."""
+    with openings (B,), into ``out`` if given; :func:`~occrl.envs.geometry.transform_points`
+    world by world, the same values."""
     parts = gripper_polygons_batch(openings)
     cos_sin = np.array([(math.cos(th), math.sin(th)) for th in poses[:, 2].tolist()]).reshape(-1, 2, 1, 1)
     c, s = cos_sin[:, 0], cos_sin[:, 1]
     x, y = poses[:, 0, None, None], poses[:, 1, None, None]
-    out = np.empty_like(parts)
+    out = np.empty_like(parts) if out is None else out
     out[..., 0] = c * parts[..., 0] - s * parts[..., 1] + x
     out[..., 1] = s * parts[..., 0] + c * parts[..., 1] + y
     return out
@@ -412,6 +428,8 @@ _FOV_ARC: dict[float, np.ndarray] = {}
 
 
 _STATIC_CACHE: dict[Canvas, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+_STATIC_LISTS: dict[Canvas, dict[int, tuple[list, list]]] = {}
+_GRIPPER_PARTS = gripper_polygons_batch(np.zeros(1)).shape[1]  # the gripper outline's parts
 
 
 def _static_pixels(canvas: Canvas) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -422,6 +440,16 @@ def _static_pixels(canvas: Canvas) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         edge = canvas.to_pixels(np.array([[-C.SHELF_HALF_WIDTH, 0.0], [C.SHELF_HALF_WIDTH, 0.0]]))
         _STATIC_CACHE[canvas] = (walls, edge, pad_polygons(SHELF_WALLS, C.MAX_VERTICES))
     return _STATIC_CACHE[canvas]
+
+
+def _static_lists(canvas: Canvas, row0: int) -> tuple[list, list]:
+    """The walls' and the front edge's Pillow coordinates (flat lists) in an image whose row 0 is
+    canvas row ``row0``; made once per canvas and row (read only: Pillow does not change them)."""
+    rows = _STATIC_LISTS.setdefault(canvas, {})
+    if row0 not in rows:
+        walls, edge, _ = _static_pixels(canvas)
+        rows[row0] = (_xy_lists(_pillow_pixels(walls, [row0])), _xy_lists(_pillow_pixels(edge, [row0])))
+    return rows[row0]
 
 
 def render_true_scene(

@@ -19,9 +19,9 @@ from typing import Sequence
 import numpy as np
 
 from occrl.envs import world_constants as C
-from occrl.envs.geometry import next_vertices, ragged_positions
+from occrl.envs.geometry import next_vertices, pad_polygons  # pad_polygons: also importable from here, as before
 
-__all__ = ["visible_fractions", "visible_fractions_batch", "detect", "camera_pose", "angular_extents", "pad_polygons", "in_field_of_view"]
+__all__ = ["visible_fractions", "visible_fractions_batch", "detect", "camera_pose", "angular_extents", "in_field_of_view"]
 
 
 def camera_pose(gripper_pose: np.ndarray) -> np.ndarray:
@@ -51,31 +51,6 @@ def in_field_of_view(points: np.ndarray, gripper_poses: np.ndarray, fov: float =
     return np.abs((bearing + np.pi) % (2 * np.pi) - np.pi) <= fov / 2
 
 
-def pad_polygons(polygons: Sequence[np.ndarray], size: int | None = None) -> np.ndarray:
-    """(P, V, 2) float64 with each polygon padded by repeating its first vertex (zero-length
-    edges); V is ``size``, or the most vertices of any polygon.
-
-    Raises:
-        ValueError: if a polygon has no vertex or more than ``size``.
-
-    Examples:
-        >>> import numpy as np
-        >>> from occrl.envs.visibility import pad_polygons
-        >>> pad_polygons([np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])], 4)[0].tolist()
-        [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [0.0, 0.0]]
-    """
-    lengths = np.array([len(p) for p in polygons], dtype=np.int64)
-    vmax = size if size is not None else int(lengths.max())
-    if not len(lengths):
-        return np.empty((0, vmax, 2))
-    if lengths.min() < 1 or lengths.max() > vmax:
-        raise ValueError(f"polygons must have 1 to {vmax} vertices to pad to {vmax}, got {sorted(set(lengths.tolist()))}")
-    # every polygon's vertices in one array, then one gather: vertex j of polygon k, or its first
-    vertices = np.concatenate([np.asarray(p, dtype=float).reshape(-1, 2) for p in polygons])
-    slots = np.arange(vmax)
-    return vertices[(np.cumsum(lengths) - lengths)[:, None] + np.where(slots < lengths[:, None], slots, 0)]
-
-
 def angular_extents(polys: np.ndarray, cam: np.ndarray, with_tangents: bool = False):
     """Bearing interval ``[lo, hi]`` of each padded polygon seen from ``cam`` = (x, y, heading),
     in radians relative to the camera axis, and whether the camera is inside the polygon.
@@ -102,12 +77,13 @@ def angular_extents(polys: np.ndarray, cam: np.ndarray, with_tangents: bool = Fa
     rel = np.arctan2(mx * dy - my * dx, mx * dx + my * dy)
     centre = np.arctan2(my[..., 0], mx[..., 0]) - (th + math.pi / 2)  # relative to the camera axis (+y)
     centre = (centre + math.pi) % (2 * math.pi) - math.pi
-    lo = centre + rel.min(-1)
-    hi = centre + rel.max(-1)
+    lo = centre + np.minimum.reduce(rel, -1)
+    hi = centre + np.maximum.reduce(rel, -1)
     # camera inside a convex polygon <=> the camera is on the inner side of every edge
+    # (ey * dx - ex * dy is ex * -dy - ey * -dx exactly: negation is exact, and -p + q is q - p)
     nxt = next_vertices(polys)
     ex, ey = nxt[..., 0] - polys[..., 0], nxt[..., 1] - polys[..., 1]
-    inside = np.all(ex * -dy - ey * -dx >= 0, axis=-1)
+    inside = np.logical_and.reduce(ey * dx - ex * dy >= 0, axis=-1)
     if with_tangents:
         return lo, hi, inside, rel.argmin(-1), rel.argmax(-1)
     return lo, hi, inside
@@ -168,7 +144,8 @@ def visible_fractions_batch(
 
     Examples:
         >>> import numpy as np
-        >>> from occrl.envs.visibility import pad_polygons, visible_fractions, visible_fractions_batch
+        >>> from occrl.envs.geometry import pad_polygons
+        >>> from occrl.envs.visibility import visible_fractions, visible_fractions_batch
         >>> sq = lambda x, y, r: np.array([[x-r, y-r], [x+r, y-r], [x+r, y+r], [x-r, y+r]])
         >>> objects = [pad_polygons([sq(0, 0.1, 0.03), sq(0, 0.3, 0.02)]), pad_polygons([sq(0.1, 0.2, 0.03)])]
         >>> poses = np.array([[0.0, -0.1, 0.0], [0.0, -0.1, 0.3]])
@@ -180,38 +157,46 @@ def visible_fractions_batch(
     """
     B = len(object_polygons)
     counts = [len(p) for p in object_polygons]
-    hidden = list(hidden) if hidden is not None else [None] * B
     W, V = occluder_polygons.shape[0], occluder_polygons.shape[1]
-    P = max(counts, default=0) + W
-    # every camera's objects then the occluders, padded with inert copies of the first occluder
-    # (marked 'inside' below: they neither cut the field of view nor own a ray); every camera at
-    # once: camera b's object k to row b, slot k, its occluders to the slots from n_b on
+    most = max(counts, default=0)
+    P = most + W
+    # every camera's objects in slots 0 to n_b - 1, the occluders in the last W slots, and the
+    # slots between padded with inert copies of the first occluder (marked 'inside' below: they
+    # neither cut the field of view nor own a ray). Objects before occluders, as camera by camera:
+    # a ray's owner is the first of equally near polygons, and only the objects' widths are read.
     n = np.array(counts, dtype=np.int64)
-    rows, slots = ragged_positions(counts)
-    spare = np.arange(P) >= (n + W)[:, None]  # (B, P): each camera's slots past its occluders
+    own = np.arange(most) < n[:, None]  # (B, most): camera b's objects, in order (C order: b, then k)
     polys = np.empty((B, P, V, 2))
-    polys[spare] = occluder_polygons[0] if W else 0.0
-    if len(rows):
-        polys[rows, slots] = np.concatenate([np.asarray(o, dtype=float).reshape(-1, V, 2) for o in object_polygons])
     if W:
-        polys[np.arange(B)[:, None], (n[:, None] + np.arange(W))] = occluder_polygons
-    inert = spare.copy()
-    for b, k in enumerate(hidden):
+        polys[:, most:] = occluder_polygons
+        polys[:, :most][~own] = occluder_polygons[0]
+    else:
+        polys[:, :most][~own] = 0.0
+    if most:
+        polys[:, :most][own] = np.concatenate([np.asarray(o, dtype=float).reshape(-1, V, 2) for o in object_polygons])
+    inert = np.zeros((B, P), bool)
+    inert[:, :most] = ~own
+    for b, k in enumerate(hidden if hidden is not None else ()):
         if k is not None:
             inert[b, k] = True
     cams = np.asarray(gripper_poses, dtype=float).reshape(B, 3)
     lo, hi, inside = angular_extents(polys, cams)
-    inside = inside | inert
+    inside |= inert
     half = fov / 2
     clo, chi = np.maximum(lo, -half), np.minimum(hi, half)
-    in_view = (chi > clo) & ~inside
-    # each camera's elementary intervals: the in-view bearings where an object's extent starts or
-    # ends, sorted per camera (entries out of view pushed to the end as +inf), repeats dropped
-    cand = np.concatenate([np.broadcast_to([-half, half], (B, 2)), np.where(in_view, clo, np.inf), np.where(in_view, chi, np.inf)], 1)
-    cuts = np.sort(cand, axis=1)
-    keep = np.concatenate([np.ones((B, 1), bool), cuts[:, 1:] != cuts[:, :-1]], 1) & (cuts >= -half) & (cuts <= half)
-    cuts = np.take_along_axis(cuts, np.argsort(~keep, axis=1, kind="stable"), 1)  # each camera's cuts first, in order
-    intervals = keep.sum(1) - 1  # per camera
+    in_view = chi > clo
+    in_view &= ~inside
+    # each camera's elementary intervals: the field of view's edges and the in-view bearings where
+    # an object's extent starts or ends (all within the field of view), sorted per camera with
+    # repeats and out-of-view entries as +inf at the end
+    cuts = np.full((B, 2 + 2 * P), np.inf)
+    cuts[:, 0], cuts[:, 1] = -half, half
+    np.copyto(cuts[:, 2 : 2 + P], clo, where=in_view)
+    np.copyto(cuts[:, 2 + P :], chi, where=in_view)
+    cuts.sort(axis=1)
+    cuts[:, 1:][cuts[:, 1:] == cuts[:, :-1]] = np.inf  # repeats (compared before any is replaced)
+    cuts.sort(axis=1)  # each camera's distinct cuts first, in order
+    intervals = np.add.reduce(cuts <= half, 1) - 1  # per camera
     K = int(intervals.max()) if B else 0
     used = np.arange(K) < intervals[:, None]  # (B, K): the camera's own intervals; the rest are padding
     with np.errstate(invalid="ignore"):  # padding: inf - inf
@@ -225,8 +210,13 @@ def visible_fractions_batch(
     # many times faster than along a short last axis; max, min and any do not depend on the order)
     # (contiguous: numpy lays a result out as its inputs are, so the inputs set the layout)
     vx, vy = np.ascontiguousarray(np.moveaxis(polys, (-1, -2), (0, 1)))  # (V, B, P) each
-    e = next_vertices(polys) - polys
-    nx, ny = np.ascontiguousarray(np.moveaxis(e[..., 1], -1, 0)), np.ascontiguousarray(np.moveaxis(-e[..., 0], -1, 0))  # (V, B, P)
+    # the edges' normals (ey, -ex): each vertex's successor minus the vertex, as next_vertices
+    nx, ny = np.empty_like(vx), np.empty_like(vx)
+    np.subtract(vy[1:], vy[:-1], out=nx[:-1])
+    np.subtract(vy[:1], vy[-1:], out=nx[-1:])
+    np.subtract(vx[1:], vx[:-1], out=ny[:-1])
+    np.subtract(vx[:1], vx[-1:], out=ny[-1:])
+    np.negative(ny, out=ny)
     h = nx * vx + ny * vy
     nc = nx * cx + ny * cy
     nd = nx[:, :, None] * rdx[None, :, :, None] + ny[:, :, None] * rdy[None, :, :, None]  # (V, B, K, P)
@@ -235,26 +225,26 @@ def visible_fractions_batch(
         t = num / nd
     # entering and leaving parameters (the masked max / min as np.where + max / min: the same
     # values, without the masked reduction's slower loop)
-    lower = np.where(nd < 0, t, -np.inf).max(0)
-    upper = np.where(nd > 0, t, np.inf).min(0)
-    parallel_out = ((nd == 0) & (num < 0)).any(0)
+    lower = np.maximum.reduce(np.where(nd < 0, t, -np.inf), 0)
+    upper = np.minimum.reduce(np.where(nd > 0, t, np.inf), 0)
+    parallel_out = np.logical_or.reduce((nd == 0) & (num < 0), 0)
     hit = (lower <= upper) & (upper > 0) & ~parallel_out
-    dist = np.where(hit & ~inside[:, None, :], np.maximum(lower, 0.0), np.inf)  # (B, K, P)
+    hit &= ~inside[:, None, :]
+    dist = np.where(hit, np.maximum(lower, 0.0), np.inf)  # (B, K, P)
     # each interval's owner is the nearest polygon its ray hits; an object sees the widths it owns
     owner = dist.argmin(-1)
-    owned = used & np.isfinite(dist.min(-1))
+    owned = used & (np.minimum.reduce(dist, -1) < np.inf)
     # (bincount adds each bin's weights in array order: each camera's intervals in order, as one camera alone)
     visible = np.bincount((owner + P * np.arange(B)[:, None])[owned], weights=widths[owned], minlength=B * P).reshape(B, P)
     extent = hi - lo
     frac = np.minimum(np.maximum(np.where(extent > 0, visible / np.maximum(extent, 1e-12), 0.0), 0.0), 1.0)
-    # each camera's objects' fractions (all 0 where none of them is in view), an array of its own
-    # (pieces of one new array), the hidden object's 0
-    seen = (in_view & (np.arange(P) < n[:, None])).any(1)
-    frac = np.where(seen[:, None], frac, 0.0)
-    for b, k in enumerate(hidden):
+    # each camera's objects' fractions (all 0 where none of them is in view), the hidden object's 0
+    seen = np.logical_or.reduce(in_view[:, :most] & own, 1)
+    frac[~seen] = 0.0
+    for b, k in enumerate(hidden if hidden is not None else ()):
         if k is not None:
             frac[b, k] = 0.0
-    return np.split(frac[rows, slots], np.cumsum(n)[:-1]) if B else []
+    return [frac[b, :count] for b, count in enumerate(counts)]
 
 
 def detect(fractions: np.ndarray, threshold: float = C.DETECTION_THRESHOLD) -> np.ndarray:

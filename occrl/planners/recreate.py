@@ -15,7 +15,7 @@ import numpy as np
 from tensordict import TensorDictBase
 
 from occrl.envs import world_constants as C
-from occrl.envs.geometry import polygons_overlap, transform_points
+from occrl.envs.geometry import edge_normals, separated_along, transform_points
 from occrl.envs.pymunk2d.physics_settings import DEFAULT_PHYSICS
 from occrl.envs.scene import Scene, SceneObject
 from occrl.envs.shelf_geometry import gripper_polygons
@@ -65,6 +65,19 @@ class RecreatedState:
         state (:func:`target_fits` tries many poses against it)."""
         outlines = self.polygons() + [transform_points(p, self.gripper_pose) for p in gripper_polygons(self.opening)]
         return [(p, p.min(0), p.max(0)) for p in outlines]
+
+    @cached_property
+    def obstacle_boxes(self) -> tuple[np.ndarray, np.ndarray]:
+        """The :attr:`obstacle_outlines`' bounding boxes' corners as two (O, 2) arrays (lo, hi),
+        for testing a pose against all of them at once."""
+        outlines = self.obstacle_outlines
+        return np.array([lo for _, lo, _ in outlines]).reshape(-1, 2), np.array([hi for _, _, hi in outlines]).reshape(-1, 2)
+
+    @cached_property
+    def obstacle_edges(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Each of the :attr:`obstacle_outlines`' edge normals and offsets
+        (:func:`~occrl.envs.geometry.edge_normals`), for the separating-axis test."""
+        return [edge_normals(p) for p, _, _ in self.obstacle_outlines]
 
 
 def recreate(obs: TensorDictBase) -> RecreatedState:
@@ -139,13 +152,16 @@ def target_fits(state: RecreatedState, pose) -> bool:
     lo, hi = poly.min(0), poly.max(0)
     if lo[0] < -C.SHELF_HALF_WIDTH or hi[0] > C.SHELF_HALF_WIDTH or lo[1] < 0.0 or hi[1] > C.SHELF_DEPTH:
         return False
-    # the separating-axis test only where the bounding boxes come within AABB_MARGIN (boxes
-    # further apart cannot overlap: the test would say so too, the margin keeps its rounding out)
-    return not any(
-        polygons_overlap(poly, other)
-        for other, other_lo, other_hi in state.obstacle_outlines
-        if (other_lo - hi <= AABB_MARGIN).all() and (lo - other_hi <= AABB_MARGIN).all()
-    )
+    # the separating-axis test (polygons_overlap's, with each outline's normals computed once)
+    # only where the bounding boxes come within AABB_MARGIN (boxes further apart cannot overlap:
+    # the test would say so too, the margin keeps its rounding out)
+    los, his = state.obstacle_boxes
+    near = np.flatnonzero(np.logical_and.reduce((los - hi <= AABB_MARGIN) & (lo - his <= AABB_MARGIN), 1))
+    if not len(near):
+        return True
+    own = edge_normals(poly)
+    outlines, edges = state.obstacle_outlines, state.obstacle_edges
+    return all(separated_along(*own, outlines[i][0]) or separated_along(*edges[i], poly) for i in near.tolist())
 
 
 def with_target(state: RecreatedState, pose) -> RecreatedState:

@@ -83,7 +83,7 @@ def test_batched_visibility_equals_the_per_camera_function_bit_for_bit():
 def test_pad_polygons_pads_with_the_first_vertex_and_refuses_what_does_not_fit():
     """Every polygon padded to the size by repeating its first vertex (one gather for all), and
     a polygon with no vertex or more than the size refused with a message."""
-    from occrl.envs.visibility import pad_polygons
+    from occrl.envs.geometry import pad_polygons
 
     tri = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
     quad = np.array([[2.0, 2.0], [3.0, 2.0], [3.0, 3.0], [2.0, 3.0]])

@@ -38,7 +38,7 @@ import pymunk.batch
 from pymunk._chipmunk_cffi import lib as _cp
 
 from occrl.envs import world_constants as C
-from occrl.envs.geometry import convex_hull, polygon_area, polygon_centroid, transform_points, transform_polygons
+from occrl.envs.geometry import convex_hull, pad_polygons, polygon_area, polygon_centroid, transform_points, transform_polygons
 from occrl.envs.task import StepOutcome, task_outcome
 from occrl.envs.shelf_geometry import SHELF_WALLS, beyond_walls, gripper_polygons, inverse_pose, wall_polygons
 from occrl.envs.pymunk2d import contact_list, joint_reset
@@ -156,10 +156,7 @@ class ShelfWorld:
         self.type_ids = np.array([o.type_id for o in scene.objects], dtype=np.int64)
         self.nominal_vertices = [np.asarray(o.vertices, dtype=float) for o in scene.objects]
         # the same polygons padded to MAX_VERTICES by repeating the first vertex, for vectorised use
-        self.padded_vertices = np.zeros((self.num_objects, C.MAX_VERTICES, 2))
-        for i, v in enumerate(self.nominal_vertices):
-            self.padded_vertices[i, : len(v)] = v
-            self.padded_vertices[i, len(v) :] = v[0]
+        self.padded_vertices = pad_polygons(self.nominal_vertices, C.MAX_VERTICES)
         self.num_vertices = np.array([len(v) for v in self.nominal_vertices], dtype=np.int64)
         # each object's largest vertex distance from its centroid: np.linalg.norm's sqrt(x * x + y * y)
         # over the padded vertices (the repeated first vertex changes no maximum), for all at once
