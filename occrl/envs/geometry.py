@@ -176,9 +176,18 @@ def transform_polygons(vertices: np.ndarray, poses: np.ndarray) -> np.ndarray:
     """
     poses = np.asarray(poses, dtype=float)
     c, s = np.cos(poses[..., 2])[..., None], np.sin(poses[..., 2])[..., None]
-    x = c * vertices[..., 0] - s * vertices[..., 1] + poses[..., 0, None]
-    y = s * vertices[..., 0] + c * vertices[..., 1] + poses[..., 1, None]
-    return np.stack([x, y], -1)
+    vx, vy = vertices[..., 0], vertices[..., 1]
+    # (c x - s y + px, s x + c y + py), each coordinate computed in place in the output: the
+    # same operations in the same order as the expressions
+    out = np.empty((*np.broadcast_shapes(c.shape, vx.shape), 2), dtype=np.result_type(c, vx))
+    x, y = out[..., 0], out[..., 1]
+    np.multiply(c, vx, out=x)
+    x -= s * vy
+    x += poses[..., 0, None]
+    np.multiply(s, vx, out=y)
+    y += c * vy
+    y += poses[..., 1, None]
+    return out
 
 
 def edge_normals(polygon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -121,7 +121,8 @@ def worlds_visible_fractions(worlds: Sequence, poses: Sequence[np.ndarray | None
     # every world's objects in one transform (elementwise: each polygon's values as alone)
     poses = [w.object_poses() if p is None else np.asarray(p, dtype=float) for w, p in zip(worlds, poses)]
     polygons = transform_polygons(np.concatenate([w.padded_vertices for w in worlds]), np.concatenate(poses).reshape(-1, 3))
-    objects = np.split(polygons, np.cumsum([len(p) for p in poses[:-1]]))
+    ends = np.cumsum([len(p) for p in poses]).tolist()
+    objects = [polygons[end - len(p) : end] for p, end in zip(poses, ends)]  # each world's, a view
     cameras = np.array([w.gripper_pose() for w in worlds], dtype=float).reshape(-1, 3)
     return visible_fractions_batch(objects, cameras, WALLS_PADDED, hidden=hidden)
 
@@ -207,11 +208,13 @@ def detected_world_polygons(
         ([0.08, 0.18], [True])
     """
     world = transform_polygons(np.asarray(vertices).astype(np.float64), np.asarray(poses).astype(np.float64))
-    target_type = np.asarray(target_type).reshape(-1)
+    # every slot's flags and vertex counts as Python values in one conversion each
+    is_target = (np.asarray(type_id) == np.asarray(target_type).reshape(-1, 1)).tolist()
+    counts, detected = np.asarray(num_vertices).tolist(), np.asarray(detected).tolist()
     out = []
-    for b in range(detected.shape[0]):
-        idx = np.flatnonzero(detected[b])
-        out.append(([world[b, k, : num_vertices[b, k]] for k in idx], [bool(type_id[b, k] == target_type[b]) for k in idx]))
+    for b, (row_detected, row_counts, row_target) in enumerate(zip(detected, counts, is_target)):
+        slots = [k for k, d in enumerate(row_detected) if d]
+        out.append(([world[b, k, : row_counts[k]] for k in slots], [row_target[k] for k in slots]))
     return out
 
 

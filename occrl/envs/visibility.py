@@ -157,6 +157,7 @@ def visible_fractions_batch(
     """
     B = len(object_polygons)
     counts = [len(p) for p in object_polygons]
+    hidden = list(hidden) if hidden is not None else []
     W, V = occluder_polygons.shape[0], occluder_polygons.shape[1]
     most = max(counts, default=0)
     P = most + W
@@ -176,7 +177,7 @@ def visible_fractions_batch(
         polys[:, :most][own] = np.concatenate([np.asarray(o, dtype=float).reshape(-1, V, 2) for o in object_polygons])
     inert = np.zeros((B, P), bool)
     inert[:, :most] = ~own
-    for b, k in enumerate(hidden if hidden is not None else ()):
+    for b, k in enumerate(hidden):
         if k is not None:
             inert[b, k] = True
     cams = np.asarray(gripper_poses, dtype=float).reshape(B, 3)
@@ -241,7 +242,7 @@ def visible_fractions_batch(
     # each camera's objects' fractions (all 0 where none of them is in view), the hidden object's 0
     seen = np.logical_or.reduce(in_view[:, :most] & own, 1)
     frac[~seen] = 0.0
-    for b, k in enumerate(hidden if hidden is not None else ()):
+    for b, k in enumerate(hidden):
         if k is not None:
             frac[b, k] = 0.0
     return [frac[b, :count] for b, count in enumerate(counts)]

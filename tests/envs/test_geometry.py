@@ -1,6 +1,7 @@
-"""The geometry helpers that replaced np.roll give the same arrays and values, bit for bit."""
+"""The geometry helpers: the ones that replaced np.roll give the same arrays and values, bit for bit; the padding helpers."""
 
 import numpy as np
+import pytest
 
 from occrl.envs.geometry import convex_hull, next_vertices, polygon_area, polygon_centroid
 
@@ -41,3 +42,26 @@ def test_gripper_outlines_of_many_openings_equal_each_openings_own_bit_for_bit()
     each = np.stack([np.stack(gripper_polygons(float(o))) for o in openings])
     assert batch.shape == (len(openings), 4, 4, 2)
     assert np.array_equal(batch, each) and np.array_equal(np.signbit(batch), np.signbit(each))
+
+
+def test_ragged_positions_fill_row_by_row_and_refuse_negative_counts():
+    from occrl.envs.geometry import ragged_positions
+
+    rows, slots = ragged_positions([2, 0, 3])
+    padded = np.full((3, 3), -1)
+    padded[rows, slots] = np.arange(5)  # the items laid end to end, each list's in its row
+    assert padded.tolist() == [[0, 1, -1], [-1, -1, -1], [2, 3, 4]]
+    assert [r.tolist() for r in ragged_positions([])] == [[], []]
+    with pytest.raises(ValueError, match=">= 0"):
+        ragged_positions([1, -1])
+
+
+def test_pad_polygons_takes_arrays_and_nested_lists_alike():
+    from occrl.envs.geometry import pad_polygons
+
+    tri = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]
+    quad = np.array([[0, 0], [2, 0], [2, 2], [0, 2]])  # ints: padded as floats
+    out = pad_polygons([tri, quad], 5)
+    assert out.dtype == np.float64 and out.shape == (2, 5, 2)
+    assert np.array_equal(out, pad_polygons([np.array(tri), quad.astype(float)], 5))
+    assert out[0, 3:].tolist() == [[0.0, 0.0]] * 2 and out[1, 4].tolist() == [0.0, 0.0]
