@@ -84,6 +84,24 @@ def _gripper_moment(mass: float) -> float:
     return _GRIPPER_MOMENTS[mass]
 
 
+_MASS_CACHE: dict[tuple, tuple[float, float]] = {}
+_MASS_CACHE_SIZE = 4096  # polygons remembered (a planner's recreated objects recur at every decision)
+
+
+def _mass_and_moment(vertices: np.ndarray, density: float) -> tuple[float, float]:
+    """A polygon's mass (``density`` x area) and its moment about its origin, as
+    ``pymunk.moment_for_poly`` gives it; each polygon's computed once and remembered (the same
+    values: the key holds the vertices' bytes and layout, on which the arithmetic depends)."""
+    key = (vertices.tobytes(), vertices.shape, vertices.strides, vertices.dtype.str, density)
+    found = _MASS_CACHE.get(key)
+    if found is None:
+        if len(_MASS_CACHE) >= _MASS_CACHE_SIZE:  # (noisy execution worlds make new polygons every action)
+            _MASS_CACHE.clear()
+        mass = density * polygon_area(vertices)
+        found = _MASS_CACHE[key] = (mass, pymunk.moment_for_poly(mass, vertices.tolist()))
+    return found
+
+
 class ShelfWorld:
     """A pymunk shelf world built from a :class:`~occrl.envs.Scene`.
 
@@ -221,10 +239,11 @@ class ShelfWorld:
 
     def _set_physics(self, i: int, vertices: np.ndarray, density: float, friction: float) -> None:
         body, shape = self.bodies[i], self.shapes[i]
-        mass = density * polygon_area(vertices)
-        moment = pymunk.moment_for_poly(mass, vertices.tolist())
-        body.mass, body.moment = mass, moment
-        shape.friction = friction
+        mass, moment = _mass_and_moment(vertices, density)
+        # Chipmunk's setters called directly (what pymunk's mass, moment and friction properties call)
+        _cp.cpBodySetMass(body._body, mass)
+        _cp.cpBodySetMoment(body._body, moment)
+        _cp.cpShapeSetFriction(shape._shape, friction)
         self.floor_force[i] = friction * mass * C.GRAVITY
         self.floor_arm[i] = math.sqrt(moment / mass)
         self._floor_limits_stale = True  # the kept floor joints take them at the next cold start
