@@ -74,10 +74,11 @@ class RecreatedState:
         return np.array([lo for _, lo, _ in outlines]).reshape(-1, 2), np.array([hi for _, _, hi in outlines]).reshape(-1, 2)
 
     @cached_property
-    def obstacle_edges(self) -> list[tuple[np.ndarray, np.ndarray]]:
+    def obstacle_edges(self) -> list[tuple[np.ndarray, np.ndarray] | None]:
         """Each of the :attr:`obstacle_outlines`' edge normals and offsets
-        (:func:`~occrl.envs.geometry.edge_normals`), for the separating-axis test."""
-        return [edge_normals(p) for p, _, _ in self.obstacle_outlines]
+        (:func:`~occrl.envs.geometry.edge_normals`) for the separating-axis test, filled in by
+        :func:`target_fits` as it first needs them (None until then)."""
+        return [None] * len(self.obstacle_outlines)
 
 
 def recreate(obs: TensorDictBase) -> RecreatedState:
@@ -161,7 +162,14 @@ def target_fits(state: RecreatedState, pose) -> bool:
         return True
     own = edge_normals(poly)
     outlines, edges = state.obstacle_outlines, state.obstacle_edges
-    return all(separated_along(*own, outlines[i][0]) or separated_along(*edges[i], poly) for i in near.tolist())
+    for i in near.tolist():
+        if separated_along(*own, outlines[i][0]):
+            continue
+        if edges[i] is None:
+            edges[i] = edge_normals(outlines[i][0])
+        if not separated_along(*edges[i], poly):
+            return False
+    return True
 
 
 def with_target(state: RecreatedState, pose) -> RecreatedState:
