@@ -11,6 +11,7 @@ open front edge black, clutter red, the target green, the gripper blue.
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 from typing import Sequence
@@ -309,7 +310,7 @@ def _render_regions(gripper_poses, openings, detections, canvas: Canvas, fov: fl
     # every point any world draws, in one (B, N, 2) array: the field of view's outline, the
     # shadows, the objects and the gripper's parts (each a view), for one conversion to pixels
     sizes = (1 + len(arc), 4 * P, V * most, 4 * _GRIPPER_PARTS)
-    ends = np.cumsum(sizes).tolist()
+    ends = list(itertools.accumulate(sizes))
     points = np.empty((B, ends[-1], 2))
     fov_out, shadows, objects, gripper = (points[:, e - n : e] for n, e in zip(sizes, ends))
     # shadows of detected objects and walls: from the two silhouette vertices away from the camera
@@ -389,7 +390,12 @@ def _gripper_world_polygons(poses: np.ndarray, openings: np.ndarray, out: np.nda
     """(B, parts, 4, 2) shelf-frame gripper outlines (:func:`gripper_polygons`) at poses (B, 3)
     with openings (B,), into ``out`` if given; :func:`~occrl.envs.geometry.transform_points`
     world by world, the same values."""
-    parts = gripper_polygons_batch(openings)
+    key = openings.tobytes()
+    parts = _GRIPPER_PARTS_CACHE.get(key)
+    if parts is None:  # (read only below: kept for the next call with these openings)
+        if len(_GRIPPER_PARTS_CACHE) >= 1024:
+            _GRIPPER_PARTS_CACHE.clear()
+        parts = _GRIPPER_PARTS_CACHE[key] = gripper_polygons_batch(openings)
     cos_sin = np.array([(math.cos(th), math.sin(th)) for th in poses[:, 2].tolist()]).reshape(-1, 2, 1, 1)
     c, s = cos_sin[:, 0], cos_sin[:, 1]
     x, y = poses[:, 0, None, None], poses[:, 1, None, None]
@@ -430,6 +436,7 @@ _FOV_ARC: dict[float, np.ndarray] = {}
 _STATIC_CACHE: dict[Canvas, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 _STATIC_LISTS: dict[Canvas, dict[int, tuple[list, list]]] = {}
 _GRIPPER_PARTS = gripper_polygons_batch(np.zeros(1)).shape[1]  # the gripper outline's parts
+_GRIPPER_PARTS_CACHE: dict[bytes, np.ndarray] = {}  # gripper_polygons_batch by the openings' bytes
 
 
 def _static_pixels(canvas: Canvas) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
