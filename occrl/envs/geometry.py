@@ -210,7 +210,7 @@ def edge_normals(polygon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def separated_along(normals: np.ndarray, offsets: np.ndarray, points: np.ndarray, gap: float = 0.0) -> bool:
-    """Whether ``points`` (..., 2) lie at least ``gap`` beyond one edge of the polygon whose
+    """Whether ``points`` (N, 2) all lie at least ``gap`` beyond one edge of the polygon whose
     :func:`edge_normals` these are (one half of the separating-axis test).
 
     Examples:
