@@ -21,7 +21,7 @@ import torch
 from PIL import Image
 
 from occrl.envs import world_constants as C
-from occrl.envs.geometry import pad_polygons
+from occrl.envs.geometry import pack_polygon_lists, pad_polygons
 from occrl.envs.visibility import angular_extents
 from occrl.envs.shelf_geometry import SHELF_WALLS, gripper_polygons_batch
 
@@ -84,10 +84,21 @@ class Canvas:
             int(math.ceil((self.x1 - self.x0) / self.resolution)),
         )
 
-    def to_pixels(self, points: np.ndarray) -> np.ndarray:
-        """Continuous (col, row) pixel coordinates; integer values are pixel centres."""
+    def to_pixels(self, points: np.ndarray, overwrite: bool = False) -> np.ndarray:
+        """Continuous (col, row) pixel coordinates of shelf-frame points (..., 2); integer values
+        are pixel centres. ``overwrite``: ``points`` (a float64 array of the caller's own) holds
+        the result, computed in place (the same values)."""
         p = np.asarray(points, dtype=float)
-        return np.stack([(p[..., 0] - self.x0) / self.resolution - 0.5, (self.y1 - p[..., 1]) / self.resolution - 0.5], -1)
+        out = p if overwrite else np.empty((*p.shape[:-1], 2))
+        x, y = out[..., 0], out[..., 1]
+        # ((x - x0) / resolution - 0.5, (y1 - y) / resolution - 0.5), step by step in the output
+        np.subtract(p[..., 0], self.x0, out=x)
+        x /= self.resolution
+        x -= 0.5
+        np.subtract(self.y1, p[..., 1], out=y)
+        y /= self.resolution
+        y -= 0.5
+        return out
 
     def pixel_indices(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(row, col, inside) of the pixel holding each shelf-frame point (..., 2): int64 indices
@@ -299,12 +310,8 @@ def _render_regions(gripper_poses, openings, detections, canvas: Canvas, fov: fl
     most = max(counts, default=0)
     # every world's objects in slots 0 to n_b - 1 (spare slots up to the most: a wall, cast and
     # never drawn), then the walls
-    own = np.arange(most) < np.array(counts, dtype=np.int64).reshape(-1, 1)  # (C order: world b's objects in order)
-    padded = np.empty((B, most + len(walls_padded), *walls_padded.shape[1:]))
-    padded[:, most:] = walls_padded
-    padded[:, :most][~own] = walls_padded[0]
-    if most:
-        padded[:, :most][own] = pad_polygons([p for polys, _ in detections for p in polys], C.MAX_VERTICES)
+    detected = pad_polygons([p for polys, _ in detections for p in polys], C.MAX_VERTICES)
+    padded, _ = pack_polygon_lists(detected, counts, walls_padded)
     P, V = padded.shape[1], padded.shape[2]
     arc = _FOV_ARC[fov] if fov in _FOV_ARC else _fov_arc(fov)
     # every point any world draws, in one (B, N, 2) array: the field of view's outline, the
@@ -335,14 +342,7 @@ def _render_regions(gripper_poses, openings, detections, canvas: Canvas, fov: fl
     # Pillow's integer coordinates of every world's points in one conversion (canvas.to_pixels'
     # arithmetic in place, then the cast that truncates as Pillow does), each world's rows from
     # its region's first row (elementwise: the same values as world by world)
-    x, y = points[..., 0], points[..., 1]
-    x -= canvas.x0
-    x /= canvas.resolution
-    x -= 0.5
-    np.subtract(canvas.y1, y, out=y)
-    y /= canvas.resolution
-    y -= 0.5
-    ints = points.astype(np.int64)
+    ints = canvas.to_pixels(points, overwrite=True).astype(np.int64)
     ints[..., 1] -= np.array([region[0] for region in regions], dtype=np.int64)[:, None]
     # every world's coordinates as Python lists in one conversion each (Pillow takes lists)
     fov_xy, shadow_xy, object_xy, gripper_xy = (

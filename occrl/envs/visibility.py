@@ -19,7 +19,7 @@ from typing import Sequence
 import numpy as np
 
 from occrl.envs import world_constants as C
-from occrl.envs.geometry import next_vertices, pad_polygons  # pad_polygons: also importable from here, as before
+from occrl.envs.geometry import next_vertices, pack_polygon_lists, pad_polygons  # pad_polygons: also importable from here, as before
 
 __all__ = ["visible_fractions", "visible_fractions_batch", "detect", "camera_pose", "angular_extents", "in_field_of_view"]
 
@@ -165,16 +165,8 @@ def visible_fractions_batch(
     # slots between padded with inert copies of the first occluder (marked 'inside' below: they
     # neither cut the field of view nor own a ray). Objects before occluders, as camera by camera:
     # a ray's owner is the first of equally near polygons, and only the objects' widths are read.
-    n = np.array(counts, dtype=np.int64)
-    own = np.arange(most) < n[:, None]  # (B, most): camera b's objects, in order (C order: b, then k)
-    polys = np.empty((B, P, V, 2))
-    if W:
-        polys[:, most:] = occluder_polygons
-        polys[:, :most][~own] = occluder_polygons[0]
-    else:
-        polys[:, :most][~own] = 0.0
-    if most:
-        polys[:, :most][own] = np.concatenate([np.asarray(o, dtype=float).reshape(-1, V, 2) for o in object_polygons])
+    objects = np.concatenate([np.asarray(o, dtype=float).reshape(-1, V, 2) for o in object_polygons]) if most else np.empty((0, V, 2))
+    polys, own = pack_polygon_lists(objects, counts, occluder_polygons)  # own: (B, most), camera b's objects
     inert = np.zeros((B, P), bool)
     inert[:, :most] = ~own
     for b, k in enumerate(hidden):

@@ -160,3 +160,15 @@ def test_robot_centric_points_are_the_per_pixel_rotation_bit_for_bit():
     c, s = np.cos(poses[:, 2])[:, None, None], np.sin(poses[:, 2])[:, None, None]
     expected = np.stack([c * gx - s * gy + poses[:, 0, None, None], s * gx + c * gy + poses[:, 1, None, None]], -1)
     assert np.array_equal(robot_centric_points(poses, window, size, offset), expected)
+
+
+def test_to_pixels_in_place_gives_the_same_values_in_the_callers_array():
+    from occrl.envs.render import DEFAULT_CANVAS
+
+    points = np.random.default_rng(0).uniform(-0.3, 0.5, size=(3, 7, 2))
+    expected = DEFAULT_CANVAS.to_pixels(points)
+    scratch = points.copy()
+    out = DEFAULT_CANVAS.to_pixels(scratch, overwrite=True)
+    assert out is scratch and np.array_equal(out, expected)
+    assert np.array_equal(expected[..., 0], (points[..., 0] - DEFAULT_CANVAS.x0) / DEFAULT_CANVAS.resolution - 0.5)
+    assert np.array_equal(expected[..., 1], (DEFAULT_CANVAS.y1 - points[..., 1]) / DEFAULT_CANVAS.resolution - 0.5)
