@@ -182,7 +182,8 @@ def visible_fractions_batch(
     # each camera's elementary intervals: the field of view's edges and the in-view bearings where
     # an object's extent starts or ends (all within the field of view), sorted per camera with
     # repeats and out-of-view entries as +inf at the end
-    cuts = np.full((B, 2 + 2 * P), np.inf)
+    cuts = np.empty((B, 2 + 2 * P))
+    cuts.fill(np.inf)
     cuts[:, 0], cuts[:, 1] = -half, half
     np.copyto(cuts[:, 2 : 2 + P], clo, where=in_view)
     np.copyto(cuts[:, 2 + P :], chi, where=in_view)
@@ -202,7 +203,7 @@ def visible_fractions_batch(
     # (vertex-major, (V, B, ...): the reductions over a polygon's edges run across V whole arrays,
     # many times faster than along a short last axis; max, min and any do not depend on the order)
     # (contiguous: numpy lays a result out as its inputs are, so the inputs set the layout)
-    vx, vy = np.ascontiguousarray(np.moveaxis(polys, (-1, -2), (0, 1)))  # (V, B, P) each
+    vx, vy = np.ascontiguousarray(polys.transpose(3, 2, 0, 1))  # (V, B, P) each
     # the edges' normals (ey, -ex): each vertex's successor minus the vertex, as next_vertices
     nx, ny = np.empty_like(vx), np.empty_like(vx)
     np.subtract(vy[1:], vy[:-1], out=nx[:-1])

@@ -7,6 +7,7 @@ detections enter (see :func:`occrl.envs.observation_from_detections`).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 from functools import cached_property
 from typing import Sequence
@@ -149,20 +150,53 @@ def _with_unseen_held_target(state: RecreatedState) -> RecreatedState:
 
 def target_fits(state: RecreatedState, pose) -> bool:
     """Can the target sit at ``pose`` without overlapping known objects, walls or the gripper?"""
-    poly = transform_points(state.target_vertices, pose)
-    lo, hi = poly.min(0), poly.max(0)
-    if lo[0] < -C.SHELF_HALF_WIDTH or hi[0] > C.SHELF_HALF_WIDTH or lo[1] < 0.0 or hi[1] > C.SHELF_DEPTH:
-        return False
+    return first_fitting_pose(state, [pose]) == 0
+
+
+def first_fitting_pose(state: RecreatedState, poses) -> int | None:
+    """The index of the first of ``poses`` ((K, 3), tried in order) at which the target fits
+    (:func:`target_fits`), or None: the same answer as trying them one by one, with the shelf
+    bounds and the bounding boxes of every pose tested at once (only poses that pass both and
+    come near an obstacle take the separating-axis test, in order, until one fits).
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.planners import RecreatedState, with_target
+        >>> from occrl.planners.recreate import first_fitting_pose
+        >>> box = np.array([[-0.02, -0.02], [0.02, -0.02], [0.02, 0.02], [-0.02, 0.02]])
+        >>> state = with_target(RecreatedState((), (0.0, -0.1, 0.0), 0.085, False, 1, box), (0.0, 0.2, 0.0))
+        >>> first_fitting_pose(state, [(0.0, 0.2, 0.0), (0.0, -0.1, 0.0), (0.1, 0.2, 0.0)])  # on it; off the shelf; free
+        2
+    """
+    poses = np.asarray(poses, dtype=float).reshape(-1, 3)
+    # every pose's outline: transform_points' arithmetic, pose by pose (math.cos / math.sin), the same values
+    cos_sin = np.array([(math.cos(th), math.sin(th)) for th in poses[:, 2].tolist()]).reshape(-1, 2)
+    c, s = cos_sin[:, 0, None], cos_sin[:, 1, None]
+    p = np.asarray(state.target_vertices, dtype=float)
+    polys = np.empty((len(poses), *p.shape))
+    polys[..., 0] = c * p[..., 0] - s * p[..., 1] + poses[:, 0, None]
+    polys[..., 1] = s * p[..., 0] + c * p[..., 1] + poses[:, 1, None]
+    lo, hi = polys.min(1), polys.max(1)  # (K, 2)
+    on_shelf = (lo[:, 0] >= -C.SHELF_HALF_WIDTH) & (hi[:, 0] <= C.SHELF_HALF_WIDTH) & (lo[:, 1] >= 0.0) & (hi[:, 1] <= C.SHELF_DEPTH)
     # the separating-axis test (polygons_overlap's, with each outline's normals computed once)
     # only where the bounding boxes come within AABB_MARGIN (boxes further apart cannot overlap:
     # the test would say so too, the margin keeps its rounding out)
     los, his = state.obstacle_boxes
-    near = np.flatnonzero(np.logical_and.reduce((los - hi <= AABB_MARGIN) & (lo - his <= AABB_MARGIN), 1))
-    if not len(near):
+    near = np.logical_and.reduce((los - hi[:, None] <= AABB_MARGIN) & (lo[:, None] - his <= AABB_MARGIN), 2)  # (K, O)
+    for k in np.flatnonzero(on_shelf).tolist():
+        if _clear_of(state, polys[k], np.flatnonzero(near[k]).tolist()):
+            return k
+    return None
+
+
+def _clear_of(state: RecreatedState, poly: np.ndarray, obstacles: list[int]) -> bool:
+    """Whether the target outline ``poly`` overlaps none of the state's obstacle outlines
+    ``obstacles`` (indices into :attr:`RecreatedState.obstacle_outlines`)."""
+    if not obstacles:
         return True
     own = edge_normals(poly)
     outlines, edges = state.obstacle_outlines, state.obstacle_edges
-    for i in near.tolist():
+    for i in obstacles:
         if separated_along(*own, outlines[i][0]):
             continue
         if edges[i] is None:
@@ -299,8 +333,8 @@ class WorldPool:
     def _idle_key_with(self, count: int) -> tuple | None:
         """The least recently kept object set with ``count`` objects (and the planning physics)
         that has an idle world, or None."""
-        for key in self._idle:
-            if key[0] == PLANNING_PHYSICS and len(key) - 1 == count:
+        for key in self._idle:  # (the count first: comparing physics settings costs more)
+            if len(key) - 1 == count and key[0] == PLANNING_PHYSICS:
                 return key
         return None
 

@@ -12,12 +12,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
 from occrl.envs import world_constants as C
-from occrl.envs.robot_frame import DEFAULT_FORWARD_OFFSET, DEFAULT_WINDOW, robot_centric_points
-from occrl.planners.recreate import RecreatedState, target_fits, with_target
+from occrl.envs.robot_frame import DEFAULT_FORWARD_OFFSET, DEFAULT_WINDOW, robot_centric_xy
+from occrl.planners.recreate import RecreatedState, first_fitting_pose, with_target
 
 __all__ = ["Root", "generate_states", "heatmap_peaks"]
 
@@ -61,16 +62,30 @@ def heatmap_peaks(heat: np.ndarray, max_peaks: int = 3, radius: int = 6, rel_thr
     top = h.max()
     if not np.isfinite(top) or top <= 1e-6:
         return []
-    rows, cols = np.mgrid[: h.shape[0], : h.shape[1]]
+    disk = _disk(radius)
+    rows, cols = h.shape
     peaks = []
     for _ in range(max_peaks):
-        r, c = np.unravel_index(int(h.argmax()), h.shape)
+        r, c = divmod(int(h.argmax()), cols)
         if h[r, c] < rel_threshold * top:
             break
-        disk = (rows - r) ** 2 + (cols - c) ** 2 <= radius**2
-        peaks.append((int(r), int(c), float(h[disk].sum())))
-        h[disk] = 0.0
+        # the pixels within radius of (r, c): the disk's window clipped to the map (its pixels in
+        # the map's row-major order, so the mass sums the same values in the same order)
+        r0, r1, c0, c1 = max(r - radius, 0), min(r + radius + 1, rows), max(c - radius, 0), min(c + radius + 1, cols)
+        window = h[r0:r1, c0:c1]
+        inside = disk[r0 - r + radius : r1 - r + radius, c0 - c + radius : c1 - c + radius]
+        peaks.append((r, c, float(window[inside].sum())))
+        window[inside] = 0.0
     return peaks
+
+
+@lru_cache(maxsize=8)
+def _disk(radius: int) -> np.ndarray:
+    """(2 radius + 1, 2 radius + 1) read-only mask of the pixels within ``radius`` of the centre."""
+    offsets = np.arange(-radius, radius + 1)
+    disk = offsets[:, None] ** 2 + offsets[None, :] ** 2 <= radius**2
+    disk.flags.writeable = False
+    return disk
 
 
 def generate_states(
@@ -96,12 +111,12 @@ def generate_states(
     if state.target_detected:
         return [Root(state, 1.0)]
     size = heatmap.shape[-1]
-    points = robot_centric_points(np.asarray(state.gripper_pose, float), window, size, forward_offset)
+    x, y = robot_centric_xy(np.asarray(state.gripper_pose, float), window, size, forward_offset)
     # the target is on the shelf (a task prior): ignore heat outside it
-    on_shelf = (np.abs(points[..., 0]) < C.SHELF_HALF_WIDTH) & (points[..., 1] > 0.0) & (points[..., 1] < C.SHELF_DEPTH)
+    on_shelf = (np.abs(x) < C.SHELF_HALF_WIDTH) & (y > 0.0) & (y < C.SHELF_DEPTH)
     roots = []
     for r, c, mass in heatmap_peaks(np.where(on_shelf, heatmap, 0.0), 3 * max_roots):
-        pose = _free_pose(state, points[r, c])
+        pose = _free_pose(state, (x[r, c], y[r, c]))
         if pose is not None:
             roots.append(Root(with_target(state, pose), mass, (r, c), pose))
         if len(roots) == max_roots:
@@ -114,13 +129,18 @@ def generate_states(
     return roots
 
 
-def _free_pose(state: RecreatedState, xy: np.ndarray) -> tuple[float, float, float] | None:
+def _free_pose(state: RecreatedState, xy: tuple[float, float]) -> tuple[float, float, float] | None:
+    """The first place that fits the target: at ``xy``, then on rings of 1 to 4 cm around it (8
+    spots each, from +x anticlockwise), each spot in every orientation of :data:`_ORIENTATIONS`;
+    None if none fits. (Ring by ring: most peaks' own spot fits.)"""
     for ring in _RINGS:
         n = 1 if ring == 0 else 8
+        poses = []
         for k in range(n):
             ang = 2 * math.pi * k / n
-            p = (float(xy[0] + ring * math.cos(ang)), float(xy[1] + ring * math.sin(ang)))
-            for th in _ORIENTATIONS:
-                if target_fits(state, (*p, float(th))):
-                    return (*p, float(th))
+            x, y = float(xy[0] + ring * math.cos(ang)), float(xy[1] + ring * math.sin(ang))
+            poses += [(x, y, th) for th in _ORIENTATIONS.tolist()]
+        k = first_fitting_pose(state, poses)
+        if k is not None:
+            return poses[k]
     return None

@@ -97,15 +97,15 @@ class ImpulseSlots:
     """
 
     def __init__(self, pivots: list[pymunk.PivotJoint], gears: list[pymunk.GearJoint]) -> None:
-        self._doubles = [_pointer(joint, _PIVOT_JACC) for joint in pivots] + [_pointer(joint, _GEAR_JACC) for joint in gears]
-        self._pivots = len(pivots)
+        self._pivot_slots = [_pointer(joint, _PIVOT_JACC) for joint in pivots]  # two doubles each (a vector)
+        self._gear_slots = [_pointer(joint, _GEAR_JACC) for joint in gears]  # one double each
 
     def zero(self) -> None:
         """Set every slot's accumulated impulse to zero (as a new joint's)."""
-        for k, pointer in enumerate(self._doubles):
+        for pointer in self._pivot_slots:
+            pointer[0] = pointer[1] = 0.0
+        for pointer in self._gear_slots:
             pointer[0] = 0.0
-            if k < self._pivots:
-                pointer[1] = 0.0
 
 
 def _pointer(constraint: pymunk.Constraint, offset: int):

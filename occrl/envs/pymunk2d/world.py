@@ -102,6 +102,28 @@ def _mass_and_moment(vertices: np.ndarray, density: float) -> tuple[float, float
     return found
 
 
+_FINGER_VERTICES: dict[tuple[float, float], tuple[list, list]] = {}  # the fingers' vertex lists by opening (read only)
+_PADDED_CACHE: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+_PADDED_CACHE_SIZE = 4096  # object sets remembered (a planner's recreated scenes recur at every decision)
+
+
+def _padded_and_radii(vertices: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """The objects' polygons padded to MAX_VERTICES by repeating the first vertex, (n, V, 2), and
+    each one's largest vertex distance from its centroid, (n,) (np.linalg.norm's sqrt(x * x +
+    y * y) over the padded vertices: the repeated first vertex changes no maximum); both read
+    only, remembered per object set (the key holds each polygon's shape and bytes)."""
+    key = tuple((v.shape, v.tobytes()) for v in vertices)
+    found = _PADDED_CACHE.get(key)
+    if found is None:
+        if len(_PADDED_CACHE) >= _PADDED_CACHE_SIZE:
+            _PADDED_CACHE.clear()
+        pv = pad_polygons(vertices, C.MAX_VERTICES)
+        radius = np.sqrt(pv[..., 0] * pv[..., 0] + pv[..., 1] * pv[..., 1]).max(-1, initial=0.0)
+        pv.flags.writeable = radius.flags.writeable = False
+        found = _PADDED_CACHE[key] = (pv, radius)
+    return found
+
+
 class ShelfWorld:
     """A pymunk shelf world built from a :class:`~occrl.envs.Scene`.
 
@@ -158,9 +180,13 @@ class ShelfWorld:
             raise ValueError(f"rebuild is for noise-free worlds (the planners' imagined ones); this one has noise {self.noise}")
         self._take_scene(scene)
         for i, vertices in enumerate(self.nominal_vertices):
+            key = vertices.tobytes()
+            if self._nominal_shapes[i] == key:  # this shape, mass and friction already: set as they are
+                continue
             # the convex hull pymunk.Poly builds from the vertices (cpPolyShapeSetVerts), as a new shape has it
             self.shapes[i].unsafe_set_vertices(vertices.tolist(), transform=_IDENTITY)
             self._set_physics(i, vertices, C.NOMINAL_DENSITY, C.NOMINAL_FRICTION)
+            self._nominal_shapes[i] = key
         self._set_opening(C.GRIPPER_STROKE)
         self._set_poses(np.asarray(scene.gripper_pose, float), np.array([o.pose for o in scene.objects], float).reshape(-1, 3))
 
@@ -173,13 +199,10 @@ class ShelfWorld:
         self.target_index = next((i for i, o in enumerate(scene.objects) if o.is_target), -1)
         self.type_ids = np.array([o.type_id for o in scene.objects], dtype=np.int64)
         self.nominal_vertices = [np.asarray(o.vertices, dtype=float) for o in scene.objects]
-        # the same polygons padded to MAX_VERTICES by repeating the first vertex, for vectorised use
-        self.padded_vertices = pad_polygons(self.nominal_vertices, C.MAX_VERTICES)
+        # the same polygons padded to MAX_VERTICES by repeating the first vertex, for vectorised
+        # use, and each object's radius (read only: shared by the worlds of the same shapes)
+        self.padded_vertices, self.object_radius = _padded_and_radii(self.nominal_vertices)
         self.num_vertices = np.array([len(v) for v in self.nominal_vertices], dtype=np.int64)
-        # each object's largest vertex distance from its centroid: np.linalg.norm's sqrt(x * x + y * y)
-        # over the padded vertices (the repeated first vertex changes no maximum), for all at once
-        pv = self.padded_vertices
-        self.object_radius = np.sqrt(pv[..., 0] * pv[..., 0] + pv[..., 1] * pv[..., 1]).max(-1, initial=0.0)
         self.opening = C.GRIPPER_STROKE
         self.closed = False
         self.held: int | None = None
@@ -210,6 +233,9 @@ class ShelfWorld:
         mass = self.physics.gripper_mass
         self.gripper = pymunk.Body(mass=mass, moment=1.0)
         polys = gripper_polygons(C.GRIPPER_STROKE)
+        # the opening the finger shapes were last set to by _set_opening (None: as built, whose
+        # vertices pymunk.Poly ordered as their convex hull, and _set_opening does not)
+        self._finger_opening: tuple[float, float] | None = None
         self.gripper.moment = _gripper_moment(mass)
         self.gripper_shapes = []
         for poly in polys:
@@ -235,6 +261,9 @@ class ShelfWorld:
         self._filtered: int | None = None  # object whose shape is in the gripper's group
         for i in range(self.num_objects):
             self._set_physics(i, self.nominal_vertices[i], C.NOMINAL_DENSITY, C.NOMINAL_FRICTION)
+        # the nominal vertices' bytes of each object shape that has them, with the nominal mass
+        # and friction (None once noise changed it): rebuild leaves such shapes as they are
+        self._nominal_shapes: list[bytes | None] = [v.tobytes() for v in self.nominal_vertices]
         self._set_poses(np.asarray(scene.gripper_pose, float), np.array([o.pose for o in scene.objects], float))
 
     def _set_physics(self, i: int, vertices: np.ndarray, density: float, friction: float) -> None:
@@ -524,6 +553,7 @@ class ShelfWorld:
                 noisy = v
             self.shapes[i].unsafe_set_vertices(noisy.tolist())
             self._set_physics(i, noisy, density, friction)
+            self._nominal_shapes[i] = None
 
     def _actuate_fingers(self, close: bool) -> None:
         if close and not self.closed:
@@ -576,6 +606,16 @@ class ShelfWorld:
 
     def _set_opening(self, opening: float) -> None:
         self.opening = float(opening)
-        polys = gripper_polygons(self.opening)
-        self.gripper_shapes[1].unsafe_set_vertices(polys[1].tolist())
-        self.gripper_shapes[2].unsafe_set_vertices(polys[2].tolist())
+        # (the sign too: -0.0 gives fingers of other zero signs than 0.0)
+        key = (self.opening, math.copysign(1.0, self.opening))
+        if key == self._finger_opening:  # the fingers are there already (as set below)
+            return
+        fingers = _FINGER_VERTICES.get(key)
+        if fingers is None:
+            if len(_FINGER_VERTICES) >= 4096:
+                _FINGER_VERTICES.clear()
+            polys = gripper_polygons(self.opening)
+            fingers = _FINGER_VERTICES[key] = (polys[1].tolist(), polys[2].tolist())
+        self.gripper_shapes[1].unsafe_set_vertices(fingers[0])
+        self.gripper_shapes[2].unsafe_set_vertices(fingers[1])
+        self._finger_opening = key
