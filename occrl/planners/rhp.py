@@ -135,29 +135,38 @@ class NetworkStepper:
         if self.backend == "onnxruntime":
             self.session = _onnx_session(self.net)
 
-    @torch.inference_mode()
     def step(self, pixels: torch.Tensor, h: torch.Tensor, c: torch.Tensor) -> tuple[dict[str, torch.Tensor], torch.Tensor, torch.Tensor]:
         """``pixels`` (B, 3, S, S) (S: the network's ``config.image_size``) and the LSTM state
         before them, each (B, layers, H) as the tensordict stores it -> ``{"belief", "loc",
         "scale"}`` (and ``"value"`` on ONNX Runtime) and the state after them."""
-        h, c = h.transpose(0, 1).contiguous(), c.transpose(0, 1).contiguous()  # LSTM layout (layers, B, H)
-        if self.session is not None:
-            feed = {"pixels": pixels.numpy(), "h": h.numpy(), "c": c.numpy()}
-            *outputs, h_next, c_next = (torch.from_numpy(x) for x in self.session.run(None, feed))
-            out = dict(zip(("belief", *self.graph.policy_outputs, "value"), outputs))
-        else:
-            belief, policy, h_next, c_next = self.graph.step(pixels, h, c)
-            out = {"belief": belief, **dict(zip(self.graph.policy_outputs, policy))}
+        if self.session is None:
+            with torch.inference_mode():
+                return self._step_torch(pixels, h, c)
+        # ONNX Runtime: numpy arrays in and out, no autograd to switch off
+        h, c = h.detach().transpose(0, 1).contiguous(), c.detach().transpose(0, 1).contiguous()  # LSTM layout (layers, B, H)
+        feed = {"pixels": pixels.detach().numpy(), "h": h.numpy(), "c": c.numpy()}
+        *outputs, h_next, c_next = (torch.from_numpy(x) for x in self.session.run(None, feed))
+        out = dict(zip(("belief", *self.graph.policy_outputs, "value"), outputs))
         if self.min_scale > 0:
             out["scale"] = out["scale"].clamp(min=self.min_scale)
         return out, h_next.transpose(0, 1), c_next.transpose(0, 1)
 
-    @torch.inference_mode()
+    def _step_torch(
+        self, pixels: torch.Tensor, h: torch.Tensor, c: torch.Tensor
+    ) -> tuple[dict[str, torch.Tensor], torch.Tensor, torch.Tensor]:
+        h, c = h.transpose(0, 1).contiguous(), c.transpose(0, 1).contiguous()  # LSTM layout (layers, B, H)
+        belief, policy, h_next, c_next = self.graph.step(pixels, h, c)
+        out = {"belief": belief, **dict(zip(self.graph.policy_outputs, policy))}
+        if self.min_scale > 0:
+            out["scale"] = out["scale"].clamp(min=self.min_scale)
+        return out, h_next.transpose(0, 1), c_next.transpose(0, 1)
+
     def value(self, out: dict[str, torch.Tensor]) -> torch.Tensor:
         """(B,) the value head on ``out["belief"]``."""
-        if "value" in out:
+        if "value" in out:  # ONNX Runtime computed it with the step
             return out["value"]
-        return self.graph.value_head(out["belief"]).squeeze(-1)
+        with torch.inference_mode():
+            return self.graph.value_head(out["belief"]).squeeze(-1)
 
 
 def _onnx_session(net: OccNet):
