@@ -121,7 +121,7 @@ def main() -> None:
         f"vs sequential {1e3 * ts / n:.1f} ms per decision: {ts / tb:.1f}x / {ts / tk:.1f}x faster; "
         f"same action in {same}/{n} / {same_kept}/{n} decisions"
     )
-    floor(net, obs, inference=args.inference)
+    floor(net, obs, inference=args.inference, sequential_ms=1e3 * ts / n)
     if args.inference == "torch":  # the profile compares with the sequential reference, which runs torch
         breakdown(net, obs)
 
@@ -178,11 +178,15 @@ def worlds_together(net, obs, worlds: int = 8, rounds: int = 3, inference: str =
     )
 
 
-def floor(net, obs, inference: str = "torch") -> None:
+def floor(net, obs, inference: str = "torch", sequential_ms: float | None = None) -> None:
     """How close a 4x4 decision is to the floor of its work: the roll-outs' physics steps
     (``ShelfWorld.step``; of it, Chipmunk's own ``cpSpaceStep``) plus the batched network calls
     (``NetworkStepper.step`` on the ``inference`` backend), timed inside unprofiled decisions of
-    one planner; everything else (rendering, world building, glue) is above the floor."""
+    one planner; everything else (rendering, world building, glue) is above the floor. Then the
+    bound the observation pipeline's cost per world sets: a decision that paid only that for its
+    roll-outs' observations (no cost per call, as if one call rendered them all) and its world
+    building, and nothing else above the floor; with ``sequential_ms`` (the sequential
+    reference's decision time) the batched RHP's largest speed-up over it that this leaves."""
     import occrl.envs.pymunk2d.world as world_module
     from occrl.envs.pymunk2d.world import ShelfWorld
     from occrl.planners import rhp
@@ -255,6 +259,17 @@ def floor(net, obs, inference: str = "torch") -> None:
         f"({calls_fixed:.0f} + {calls_per_world:.0f} per world Python-level calls): at {renders['calls'] / n:.1f} calls and "
         f"{renders['worlds'] / n:.1f} worlds per decision, {renders['calls'] / n * fixed:.1f} ms + {renders['worlds'] / n * per_world:.1f} ms"
     )
+    # the bound: only the per-world cost of the observations, the world building and the floor
+    bound = (low + spent["world building"]) / n + 1e-3 * renders["worlds"] / n * per_world
+    line = (
+        f"  bound at this per-world cost (no per-call cost, nothing else above the floor): {1e3 * bound:.1f} ms a decision, "
+        f"{100 * (1 - low / n / bound):.0f} % above the floor"
+    )
+    if sequential_ms is not None:
+        line += (
+            f"; the batched RHP at most {sequential_ms / (1e3 * bound):.1f}x faster than the sequential reference ({sequential_ms:.1f} ms)"
+        )
+    print(line)
 
 
 def perception_cost(sizes=(1, 2, 4, 8, 16), repeats: int = 20) -> tuple[float, float, float, float]:

@@ -22,7 +22,7 @@ from PIL import Image
 
 from occrl.envs import world_constants as C
 from occrl.envs.geometry import pack_polygon_lists, pad_polygons
-from occrl.envs.visibility import angular_extents
+from occrl.envs.visibility import silhouette_vertices
 from occrl.envs.shelf_geometry import SHELF_WALLS, gripper_polygons_batch
 
 __all__ = [
@@ -321,7 +321,7 @@ def _render_regions(gripper_poses, openings, detections, canvas: Canvas, fov: fl
     points = np.empty((B, ends[-1], 2))
     fov_out, shadows, objects, gripper = (points[:, e - n : e] for n, e in zip(sizes, ends))
     # shadows of detected objects and walls: from the two silhouette vertices away from the camera
-    _, _, inside, i_lo, i_hi = angular_extents(padded, poses, with_tangents=True)
+    inside, i_lo, i_hi = silhouette_vertices(padded, poses)
     worlds, slots = np.arange(B)[:, None], np.arange(P)[None, :]
     v_lo, v_hi = padded[worlds, slots, i_lo], padded[worlds, slots, i_hi]
     cams = poses[:, None, :2]

@@ -21,7 +21,15 @@ import numpy as np
 from occrl.envs import world_constants as C
 from occrl.envs.geometry import next_vertices, pack_polygon_lists, pad_polygons  # pad_polygons: also importable from here, as before
 
-__all__ = ["visible_fractions", "visible_fractions_batch", "detect", "camera_pose", "angular_extents", "in_field_of_view"]
+__all__ = [
+    "visible_fractions",
+    "visible_fractions_batch",
+    "detect",
+    "camera_pose",
+    "angular_extents",
+    "silhouette_vertices",
+    "in_field_of_view",
+]
 
 
 def camera_pose(gripper_pose: np.ndarray) -> np.ndarray:
@@ -67,7 +75,38 @@ def angular_extents(polys: np.ndarray, cam: np.ndarray, with_tangents: bool = Fa
         ([-18.4, 18.4], [False, True])
     """
     cam = np.asarray(cam, dtype=float)
-    cx, cy, th = cam[..., 0, None, None], cam[..., 1, None, None], cam[..., 2, None]
+    mx, my, rel, inside = _bearings(polys, cam)
+    centre = np.arctan2(my[..., 0], mx[..., 0]) - (cam[..., 2, None] + math.pi / 2)  # relative to the camera axis (+y)
+    centre = (centre + math.pi) % (2 * math.pi) - math.pi
+    lo = centre + np.minimum.reduce(rel, -1)
+    hi = centre + np.maximum.reduce(rel, -1)
+    if with_tangents:
+        return lo, hi, inside, rel.argmin(-1), rel.argmax(-1)
+    return lo, hi, inside
+
+
+def silhouette_vertices(polys: np.ndarray, cam: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Whether the camera is inside each padded polygon and the indices of its silhouette
+    vertices (those at the low and high end of its bearings): :func:`angular_extents`' last three
+    results with ``with_tangents``, the same values, without the extents themselves (the shadows
+    of the rendered observation start at these vertices). ``polys`` (B, P, V, 2), ``cam`` (B, 3).
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs.visibility import silhouette_vertices
+        >>> square = np.array([[[[-0.05, 0.15], [0.05, 0.15], [0.05, 0.25], [-0.05, 0.25]]]])
+        >>> [a.tolist() for a in silhouette_vertices(square, np.zeros((1, 3)))]  # right lower, left lower corner
+        [[[False]], [[1]], [[0]]]
+    """
+    _, _, rel, inside = _bearings(polys, np.asarray(cam, dtype=float))
+    return inside, rel.argmin(-1), rel.argmax(-1)
+
+
+def _bearings(polys: np.ndarray, cam: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Seen from each camera (x, y, heading): the direction towards each polygon's centre (mx,
+    my; (..., P, 1) each), each vertex's bearing relative to it (..., P, V) and whether the camera
+    is inside the polygon (..., P)."""
+    cx, cy = cam[..., 0, None, None], cam[..., 1, None, None]
     dx, dy = polys[..., 0] - cx, polys[..., 1] - cy
     # towards the polygon's centre (np.mean's own arithmetic, a sum divided by the count, without
     # its Python wrapper: the same values)
@@ -75,18 +114,12 @@ def angular_extents(polys: np.ndarray, cam: np.ndarray, with_tangents: bool = Fa
     mx, my = np.add.reduce(dx, -1, keepdims=True) / count, np.add.reduce(dy, -1, keepdims=True) / count
     # bearings relative to that direction: one arctan2 of (cross, dot), no wrapping needed
     rel = np.arctan2(mx * dy - my * dx, mx * dx + my * dy)
-    centre = np.arctan2(my[..., 0], mx[..., 0]) - (th + math.pi / 2)  # relative to the camera axis (+y)
-    centre = (centre + math.pi) % (2 * math.pi) - math.pi
-    lo = centre + np.minimum.reduce(rel, -1)
-    hi = centre + np.maximum.reduce(rel, -1)
     # camera inside a convex polygon <=> the camera is on the inner side of every edge
     # (ey * dx - ex * dy is ex * -dy - ey * -dx exactly: negation is exact, and -p + q is q - p)
     nxt = next_vertices(polys)
     ex, ey = nxt[..., 0] - polys[..., 0], nxt[..., 1] - polys[..., 1]
     inside = np.logical_and.reduce(ey * dx - ex * dy >= 0, axis=-1)
-    if with_tangents:
-        return lo, hi, inside, rel.argmin(-1), rel.argmax(-1)
-    return lo, hi, inside
+    return mx, my, rel, inside
 
 
 def visible_fractions(
