@@ -63,6 +63,7 @@ def heatmap_peaks(heat: np.ndarray, max_peaks: int = 3, radius: int = 6, rel_thr
     if not np.isfinite(top) or top <= 1e-6:
         return []
     disk = _disk(radius)
+    half = disk.shape[0] // 2  # the disk's reach in whole pixels
     rows, cols = h.shape
     peaks = []
     for _ in range(max_peaks):
@@ -71,18 +72,20 @@ def heatmap_peaks(heat: np.ndarray, max_peaks: int = 3, radius: int = 6, rel_thr
             break
         # the pixels within radius of (r, c): the disk's window clipped to the map (its pixels in
         # the map's row-major order, so the mass sums the same values in the same order)
-        r0, r1, c0, c1 = max(r - radius, 0), min(r + radius + 1, rows), max(c - radius, 0), min(c + radius + 1, cols)
+        r0, r1, c0, c1 = max(r - half, 0), min(r + half + 1, rows), max(c - half, 0), min(c + half + 1, cols)
         window = h[r0:r1, c0:c1]
-        inside = disk[r0 - r + radius : r1 - r + radius, c0 - c + radius : c1 - c + radius]
+        inside = disk[r0 - r + half : r1 - r + half, c0 - c + half : c1 - c + half]
         peaks.append((r, c, float(window[inside].sum())))
         window[inside] = 0.0
     return peaks
 
 
 @lru_cache(maxsize=8)
-def _disk(radius: int) -> np.ndarray:
-    """(2 radius + 1, 2 radius + 1) read-only mask of the pixels within ``radius`` of the centre."""
-    offsets = np.arange(-radius, radius + 1)
+def _disk(radius: float) -> np.ndarray:
+    """(2 R + 1, 2 R + 1) read-only mask of the pixels within ``radius`` of the centre pixel (R:
+    ``|radius|`` rounded down: the mask compares squared distances with ``radius ** 2``)."""
+    reach = math.floor(abs(radius))
+    offsets = np.arange(-reach, reach + 1)
     disk = offsets[:, None] ** 2 + offsets[None, :] ** 2 <= radius**2
     disk.flags.writeable = False
     return disk

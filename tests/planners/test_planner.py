@@ -215,3 +215,29 @@ def test_target_fits_skips_only_polygons_whose_boxes_are_apart():
             answers.append(full)
             assert target_fits(state, (x, y, th)) == full
     assert any(answers) and not all(answers)
+
+
+def test_heatmap_peaks_sum_the_same_disks_as_the_whole_map_grid():
+    """heatmap_peaks works in a window around each peak: the same peaks and masses, bit for bit,
+    as the disk tested on the whole map's pixel grid (float and negative radii included)."""
+
+    def whole_grid(heat, max_peaks, radius, rel_threshold):
+        h = heat.copy()
+        top = h.max()
+        rows, cols = np.mgrid[: h.shape[0], : h.shape[1]]
+        peaks = []
+        for _ in range(max_peaks):
+            r, c = np.unravel_index(int(h.argmax()), h.shape)
+            if h[r, c] < rel_threshold * top:
+                break
+            disk = (rows - r) ** 2 + (cols - c) ** 2 <= radius**2
+            peaks.append((int(r), int(c), float(h[disk].sum())))
+            h[disk] = 0.0
+        return peaks
+
+    rng = np.random.default_rng(0)
+    for i in range(300):
+        heat = rng.random((int(rng.integers(5, 70)), int(rng.integers(5, 70)))) ** 8
+        radius = [6, 2, 0, 3.5, 2.9, 10, 100, -1, -2.5, 1][i % 10]
+        threshold = [0.2, 0.0, 0.5][i % 3]
+        assert heatmap_peaks(heat, 9, radius, threshold) == whole_grid(heat, 9, radius, threshold)
