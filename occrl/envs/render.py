@@ -150,9 +150,9 @@ def _pillow_pixels(pixels: np.ndarray, row0: np.ndarray | None = None) -> np.nda
     an image whose row 0 is that canvas row. Pillow's polygon fill works on these integers alone,
     so an image of the canvas's rows ``row0`` onwards holds exactly those rows of the whole
     canvas's image."""
-    ints = np.trunc(pixels).astype(np.int64)
+    ints = pixels.astype(np.int64)  # (numpy's cast truncates towards zero too: np.trunc's values)
     if row0 is not None:
-        ints[..., 1] -= np.asarray(row0).reshape(-1, *[1] * (ints.ndim - 2))
+        ints[..., 1] -= np.asarray(row0, dtype=np.int64).reshape(-1, *[1] * (ints.ndim - 2))
     return ints
 
 
@@ -340,10 +340,9 @@ def _render_regions(gripper_poses, openings, detections, canvas: Canvas, fov: fl
     objects.reshape(B, most, V, 2)[...] = padded[:, :most]
     _gripper_world_polygons(poses, openings, out=gripper.reshape(B, _GRIPPER_PARTS, 4, 2))
     # Pillow's integer coordinates of every world's points in one conversion (canvas.to_pixels'
-    # arithmetic in place, then the cast that truncates as Pillow does), each world's rows from
-    # its region's first row (elementwise: the same values as world by world)
-    ints = canvas.to_pixels(points, overwrite=True).astype(np.int64)
-    ints[..., 1] -= np.array([region[0] for region in regions], dtype=np.int64)[:, None]
+    # arithmetic in place), each world's rows from its region's first row (elementwise: the same
+    # values as world by world)
+    ints = _pillow_pixels(canvas.to_pixels(points, overwrite=True), [region[0] for region in regions])
     # every world's coordinates as Python lists in one conversion each (Pillow takes lists)
     fov_xy, shadow_xy, object_xy, gripper_xy = (
         _xy_lists(ints[:, e - n : e].reshape(B, -1, k, 2)) for n, e, k in zip(sizes, ends, (sizes[0], 4, V, 4))

@@ -141,22 +141,20 @@ class NetworkStepper:
         "scale"}`` (and ``"value"`` on ONNX Runtime) and the state after them."""
         if self.session is None:
             with torch.inference_mode():
-                return self._step_torch(pixels, h, c)
+                h, c = h.transpose(0, 1).contiguous(), c.transpose(0, 1).contiguous()  # LSTM layout (layers, B, H)
+                belief, policy, h_next, c_next = self.graph.step(pixels, h, c)
+                return self._outputs({"belief": belief, **dict(zip(self.graph.policy_outputs, policy))}, h_next, c_next)
         # ONNX Runtime: numpy arrays in and out, no autograd to switch off
-        h, c = h.detach().transpose(0, 1).contiguous(), c.detach().transpose(0, 1).contiguous()  # LSTM layout (layers, B, H)
+        h, c = h.detach().transpose(0, 1).contiguous(), c.detach().transpose(0, 1).contiguous()
         feed = {"pixels": pixels.detach().numpy(), "h": h.numpy(), "c": c.numpy()}
         *outputs, h_next, c_next = (torch.from_numpy(x) for x in self.session.run(None, feed))
-        out = dict(zip(("belief", *self.graph.policy_outputs, "value"), outputs))
-        if self.min_scale > 0:
-            out["scale"] = out["scale"].clamp(min=self.min_scale)
-        return out, h_next.transpose(0, 1), c_next.transpose(0, 1)
+        return self._outputs(dict(zip(("belief", *self.graph.policy_outputs, "value"), outputs)), h_next, c_next)
 
-    def _step_torch(
-        self, pixels: torch.Tensor, h: torch.Tensor, c: torch.Tensor
+    def _outputs(
+        self, out: dict[str, torch.Tensor], h_next: torch.Tensor, c_next: torch.Tensor
     ) -> tuple[dict[str, torch.Tensor], torch.Tensor, torch.Tensor]:
-        h, c = h.transpose(0, 1).contiguous(), c.transpose(0, 1).contiguous()  # LSTM layout (layers, B, H)
-        belief, policy, h_next, c_next = self.graph.step(pixels, h, c)
-        out = {"belief": belief, **dict(zip(self.graph.policy_outputs, policy))}
+        """Either backend's outputs as :meth:`step` returns them: the policy's spread floored at
+        ``min_scale``, the state back in the tensordict's layout (B, layers, H)."""
         if self.min_scale > 0:
             out["scale"] = out["scale"].clamp(min=self.min_scale)
         return out, h_next.transpose(0, 1), c_next.transpose(0, 1)
