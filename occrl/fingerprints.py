@@ -10,6 +10,15 @@ bits: torch's scalar kernels (``ATEN_CPU_CAPABILITY=default``) against its vecto
 hybrid 4x4's actions by at most 1.3e-6 over a 50-action episode, which a digest of the actions
 rounded to 1e-5 (the format until 2026-12-06) did not survive. Record them anew only with a
 change that alters behaviour on purpose (physics, networks), and say so in the commit.
+
+Such last-bit differences can also turn a near-tie of the hybrid planner's roll-out returns many
+steps into an episode, after which it is another episode: on an AMD EPYC (torch's AVX512 kernels)
+hybrid 4x4's stage-2 episode moves by 1e-6 from its third action and chooses another roll-out at
+its 35th. Such an episode is recorded once more on that machine as an *alternate*
+(``python scripts/record_fingerprints.py --alternate``, which leaves the main record as it is);
+an episode passes when it equals the recorded one or one of its alternates
+(:func:`recorded_difference`). A behaviour change would have to reproduce another CPU's episode
+to pass.
 """
 
 from __future__ import annotations
@@ -26,6 +35,8 @@ __all__ = [
     "episode_fingerprint",
     "episode_difference",
     "same_episode",
+    "recorded_difference",
+    "machine_description",
     "preset_fingerprints",
     "all_fingerprints",
 ]
@@ -139,6 +150,43 @@ def same_episode(fingerprint: dict, recorded: dict, atol: float = ACTION_TOLERAN
         False
     """
     return episode_difference(fingerprint, recorded, atol) is None
+
+
+def recorded_difference(fingerprint: dict, recorded: dict, alternates: list[dict] = ()) -> str | None:
+    """:func:`episode_difference` from the recorded fingerprint, or None when the episode equals it
+    or one of its ``alternates`` (the same episode recorded on another CPU, each a fingerprint with
+    a ``"machine"`` entry saying which).
+
+    Examples:
+        >>> from occrl.fingerprints import recorded_difference
+        >>> recorded = {"actions": [[0.5, -1.0, 0.0, 1.0]], "steps": 1, "success": True, "dropped": False}
+        >>> other = {**recorded, "actions": [[0.25, -1.0, 0.0, 1.0]], "machine": "another CPU"}
+        >>> recorded_difference(other, recorded, [other]) is None, recorded_difference(other, recorded)
+        (True, 'action 0 off by 0.25 (tolerance 0.0001)')
+    """
+    difference = episode_difference(fingerprint, recorded)
+    if difference is None or any(same_episode(fingerprint, alternate) for alternate in alternates):
+        return None
+    if alternates:
+        return f"{difference}; nor does it equal the {len(alternates)} alternate(s) recorded on {[a.get('machine') for a in alternates]}"
+    return difference
+
+
+def machine_description() -> str:
+    """The CPU's model name (Linux's /proc/cpuinfo, else ``platform.processor()``) and the torch
+    kernels it runs (``torch.backends.cpu.get_cpu_capability()``): what an alternate fingerprint
+    records of the machine that made it."""
+    import platform
+
+    import torch
+
+    model = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as f:
+            model = next((line.split(":", 1)[1].strip() for line in f if line.startswith("model name")), model)
+    except OSError:
+        pass
+    return f"{model}, torch CPU kernels {torch.backends.cpu.get_cpu_capability()}"
 
 
 def preset_fingerprints() -> dict:

@@ -194,7 +194,8 @@ def edge_normals(polygon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """A convex CCW polygon's (V, 2) unit outward edge normals and (V,) offsets: each edge's
     offset is the polygon's maximum along its normal. What the separating-axis test
     (:func:`separated_along`, :func:`polygons_overlap`) reads of a polygon; computed once, a
-    polygon can be tested against many.
+    polygon can be tested against many. Polygons (..., V, 2) give (..., V, 2) and (..., V), each
+    polygon's bit for bit its own.
 
     Examples:
         >>> import numpy as np
@@ -204,9 +205,9 @@ def edge_normals(polygon: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         (True, [0.0, 1.0, 1.0, 0.0])
     """
     e = next_vertices(polygon) - polygon
-    n = np.stack([e[:, 1], -e[:, 0]], axis=1)  # outward normals of a CCW polygon
-    n /= np.linalg.norm(n, axis=1, keepdims=True)
-    return n, np.einsum("ij,ij->i", n, polygon)  # each edge's own offset is the max of the polygon along its normal
+    n = np.stack([e[..., 1], -e[..., 0]], axis=-1)  # outward normals of a CCW polygon
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    return n, np.einsum("...ij,...ij->...i", n, polygon)  # each edge's own offset is the max of the polygon along its normal
 
 
 def separated_along(normals: np.ndarray, offsets: np.ndarray, points: np.ndarray, gap: float = 0.0) -> bool:

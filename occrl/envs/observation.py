@@ -48,6 +48,7 @@ __all__ = [
     "worlds_visible_fractions",
     "detection_arrays",
     "detected_world_polygons",
+    "worlds_detected_polygons",
     "render_shelf_labels",
     "crop_to_pixels",
     "world_pixels",
@@ -218,6 +219,58 @@ def detected_world_polygons(
     return out
 
 
+def worlds_detected_polygons(
+    worlds: Sequence, fractions: Sequence[np.ndarray], poses: Sequence[np.ndarray] | None = None
+) -> list[tuple[list[np.ndarray], list[bool]]]:
+    """:func:`detected_world_polygons` of the observation :func:`detection_arrays` would write
+    for the worlds, bit for bit (the detected objects' shapes and poses rounded to float32 as the
+    observation stores them, then transformed in float64; the target flag by type id), computed
+    for the detected objects alone without the observation's padded slot arrays: the planners'
+    roll-out images (:func:`world_pixels`). Arguments as :func:`detection_arrays`'.
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs import Scene, ShelfWorld
+        >>> from occrl.envs.observation import detected_world_polygons, detection_arrays, worlds_detected_polygons, worlds_visible_fractions
+        >>> worlds = [ShelfWorld(Scene.sample(stage=2, seed=s)) for s in range(3)]
+        >>> fractions = worlds_visible_fractions(worlds)
+        >>> a = detection_arrays(worlds, fractions)
+        >>> slots = detected_world_polygons(a["detected"], a["type_id"], a["pose"], a["vertices"], a["num_vertices"], a["target_type"])
+        >>> direct = worlds_detected_polygons(worlds, fractions)
+        >>> all(f == g and all(np.array_equal(p, q) for p, q in zip(ps, qs)) for (ps, f), (qs, g) in zip(slots, direct))
+        True
+    """
+    return _detections(worlds, fractions, poses)[0]
+
+
+def _detections(worlds: Sequence, fractions: Sequence[np.ndarray], poses: Sequence[np.ndarray] | None) -> tuple[list, np.ndarray]:
+    """:func:`worlds_detected_polygons`, and the detected polygons of every world laid end to end
+    (n, V, 2), padded as the worlds pad them (each polygon's list entry is a view of its row)."""
+    counts = [w.num_objects for w in worlds]
+    fractions = [np.asarray(f) for f in fractions]
+    if [len(f) for f in fractions] != counts:
+        raise ValueError(f"fractions must hold one value per object of each world ({counts}), got {[len(f) for f in fractions]}")
+    out: list[tuple[list[np.ndarray], list[bool]]] = [([], []) for _ in worlds]
+    d = detect(np.concatenate(fractions)) if worlds else np.zeros(0, bool)
+    if not d.any():
+        return out, np.empty((0, MAX_POLY_VERTICES, 2))
+    poses = [w.object_poses() for w in worlds] if poses is None else poses
+    # the detected objects' stored values (float32), back in float64 as detected_world_polygons reads them
+    vertices = np.concatenate([w.padded_vertices for w in worlds])[d].astype(np.float32).astype(np.float64)
+    pose = np.concatenate([np.asarray(p).reshape(-1, 3) for p in poses])[d].astype(np.float32).astype(np.float64)
+    polygons = transform_polygons(vertices, pose)
+    # the target flag as the observation gives it: the slot's type id equals the target's type (0: no target)
+    target_types = np.array([w.type_ids[w.target_index] if w.target_index >= 0 else 0 for w in worlds], np.int64)
+    types = np.concatenate([w.type_ids for w in worlds])[d]
+    rows = np.repeat(np.arange(len(worlds)), counts)[d]
+    is_target = (types == target_types[rows]).tolist()
+    num_vertices = np.concatenate([w.num_vertices for w in worlds])[d].tolist()
+    for j, (b, n, target) in enumerate(zip(rows.tolist(), num_vertices, is_target)):
+        out[b][0].append(polygons[j, :n])
+        out[b][1].append(target)
+    return out, polygons
+
+
 def render_shelf_labels(
     gripper_poses: np.ndarray,
     openings: np.ndarray,
@@ -272,8 +325,10 @@ def world_pixels(worlds: Sequence, size: int = DEFAULT_SIZE) -> torch.Tensor:
         True
     """
     poses = [w.object_poses() for w in worlds]  # read once for visibility and detections
-    a = detection_arrays(worlds, worlds_visible_fractions(worlds, poses), poses)
-    polygons = detected_world_polygons(a["detected"], a["type_id"], a["pose"], a["vertices"], a["num_vertices"], a["target_type"])
+    polygons, padded = _detections(worlds, worlds_visible_fractions(worlds, poses), poses)
+    # the gripper as the observation stores it (float32, as detection_arrays writes it)
+    gripper_poses = np.array([w.gripper_pose() for w in worlds], np.float32).reshape(-1, 3)
+    openings = np.array([w.opening for w in worlds], np.float32).reshape(-1, 1)
     # render_shelf_labels + crop_to_pixels, bit for bit, drawing only the part of the shelf the window shows
-    pixels = DEFAULT_CANVAS.pixel_indices_xy(*robot_centric_xy(a["gripper_pose"].astype(np.float64), size=size), overwrite=True)
-    return labels_to_pixels(render_labels_at_pixels(a["gripper_pose"], a["gripper_opening"], polygons, *pixels))
+    pixels = DEFAULT_CANVAS.pixel_indices_xy(*robot_centric_xy(gripper_poses.astype(np.float64), size=size), overwrite=True)
+    return labels_to_pixels(render_labels_at_pixels(gripper_poses, openings, polygons, *pixels, padded=padded))

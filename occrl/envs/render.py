@@ -257,10 +257,14 @@ def render_labels_at_pixels(
     canvas: Canvas = DEFAULT_CANVAS,
     fov: float = C.CAMERA_FOV,
     outside: int = LABELS["occluded"],
+    padded: np.ndarray | None = None,
 ) -> np.ndarray:
     """:func:`render_labels_at` of points given by their pixels: ``row``, ``col``, ``valid``
     (B, ...) as :meth:`Canvas.pixel_indices` returns them (used as scratch space: pass arrays of
-    your own). The labels (B, ...), bit for bit :func:`render_labels_at`'s.
+    your own). The labels (B, ...), bit for bit :func:`render_labels_at`'s. ``padded``: the
+    detections' polygons laid end to end, world by world, each padded to ``MAX_VERTICES`` by
+    repeating its first vertex, as :func:`~occrl.envs.geometry.pad_polygons` pads them, when the
+    caller has them so (:func:`occrl.envs.observation.world_pixels`): not padded again.
 
     Examples:
         >>> import numpy as np
@@ -287,7 +291,7 @@ def render_labels_at_pixels(
     regions = list(zip(row0.tolist(), row1.tolist(), col1.tolist()))
     # every world's region laid end to end, row by row: one gather for the points of all worlds
     # (points off the canvas read the first pixel and are replaced by ``outside``)
-    flat = np.frombuffer(b"".join(_render_regions(gripper_poses, openings, detections, canvas, fov, regions)), dtype=np.uint8)
+    flat = np.frombuffer(b"".join(_render_regions(gripper_poses, openings, detections, canvas, fov, regions, padded)), dtype=np.uint8)
     start = np.concatenate(([0], np.cumsum((row1 - row0) * col1)[:-1]))
     row -= row0[:, None]  # (the arrays are pixel_indices' own: changed in place)
     row *= col1[:, None]
@@ -299,9 +303,10 @@ def render_labels_at_pixels(
     return out.reshape(shape)
 
 
-def _render_regions(gripper_poses, openings, detections, canvas: Canvas, fov: float, regions):
+def _render_regions(gripper_poses, openings, detections, canvas: Canvas, fov: float, regions, padded: np.ndarray | None = None):
     """Each world's label map over its region (row0, row1, col1) of the canvas: rows row0 to
-    row1 - 1, columns 0 to col1 - 1, as raw uint8 bytes (row1 - row0 rows of col1)."""
+    row1 - 1, columns 0 to col1 - 1, as raw uint8 bytes (row1 - row0 rows of col1). ``padded``:
+    as :func:`render_labels_at_pixels`'."""
     poses = np.asarray(gripper_poses, dtype=float).reshape(-1, 3)
     openings = np.asarray(openings, dtype=float).reshape(-1)
     B = len(poses)
@@ -310,7 +315,7 @@ def _render_regions(gripper_poses, openings, detections, canvas: Canvas, fov: fl
     most = max(counts, default=0)
     # every world's objects in slots 0 to n_b - 1 (spare slots up to the most: a wall, cast and
     # never drawn), then the walls
-    detected = pad_polygons([p for polys, _ in detections for p in polys], C.MAX_VERTICES)
+    detected = padded if padded is not None else pad_polygons([p for polys, _ in detections for p in polys], C.MAX_VERTICES)
     padded, _ = pack_polygon_lists(detected, counts, walls_padded)
     P, V = padded.shape[1], padded.shape[2]
     arc = _FOV_ARC[fov] if fov in _FOV_ARC else _fov_arc(fov)

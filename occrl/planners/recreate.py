@@ -16,7 +16,7 @@ import numpy as np
 from tensordict import TensorDictBase
 
 from occrl.envs import world_constants as C
-from occrl.envs.geometry import edge_normals, separated_along, transform_points
+from occrl.envs.geometry import edge_normals, pad_polygons, transform_points
 from occrl.envs.pymunk2d.physics_settings import DEFAULT_PHYSICS
 from occrl.envs.scene import Scene, SceneObject
 from occrl.envs.shelf_geometry import gripper_polygons
@@ -75,11 +75,20 @@ class RecreatedState:
         return np.array([lo for _, lo, _ in outlines]).reshape(-1, 2), np.array([hi for _, _, hi in outlines]).reshape(-1, 2)
 
     @cached_property
-    def obstacle_edges(self) -> list[tuple[np.ndarray, np.ndarray] | None]:
-        """Each of the :attr:`obstacle_outlines`' edge normals and offsets
-        (:func:`~occrl.envs.geometry.edge_normals`) for the separating-axis test, filled in by
-        :func:`target_fits` as it first needs them (None until then)."""
-        return [None] * len(self.obstacle_outlines)
+    def obstacle_axes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The :attr:`obstacle_outlines` for the separating-axis test of many poses at once: their
+        points (O, V, 2), unit outward edge normals (O, V, 2) and offsets (O, V)
+        (:func:`~occrl.envs.geometry.edge_normals`, each outline's bit for bit its own), padded
+        to the most vertices V by repeating each outline's first point, normal and offset (which
+        changes neither its least projection on an axis nor whether one of its edges separates)."""
+        points = pad_polygons([p for p, _, _ in self.obstacle_outlines])  # (the gripper's parts at least)
+        counts = np.array([len(p) for p, _, _ in self.obstacle_outlines], dtype=np.int64)
+        real = np.arange(points.shape[1]) < counts[:, None]  # (O, V): the outline's own edges
+        with np.errstate(invalid="ignore"):  # the padding's zero-length edges: replaced below
+            normals, offsets = edge_normals(points)
+        normals = np.where(real[..., None], normals, normals[:, :1])
+        offsets = np.where(real, offsets, offsets[:, :1])
+        return points, normals, offsets
 
 
 def recreate(obs: TensorDictBase) -> RecreatedState:
@@ -178,32 +187,37 @@ def first_fitting_pose(state: RecreatedState, poses) -> int | None:
     polys[..., 1] = s * p[..., 0] + c * p[..., 1] + poses[:, 1, None]
     lo, hi = polys.min(1), polys.max(1)  # (K, 2)
     on_shelf = (lo[:, 0] >= -C.SHELF_HALF_WIDTH) & (hi[:, 0] <= C.SHELF_HALF_WIDTH) & (lo[:, 1] >= 0.0) & (hi[:, 1] <= C.SHELF_DEPTH)
-    # the separating-axis test (polygons_overlap's, with each outline's normals computed once)
-    # only where the bounding boxes come within AABB_MARGIN (boxes further apart cannot overlap:
-    # the test would say so too, the margin keeps its rounding out)
+    # the separating-axis test (polygons_overlap's) only where the bounding boxes come within
+    # AABB_MARGIN (boxes further apart cannot overlap: the test would say so too, the margin keeps
+    # its rounding out), for every such pose and obstacle at once
     los, his = state.obstacle_boxes
     near = np.logical_and.reduce((los - hi[:, None] <= AABB_MARGIN) & (lo[:, None] - his <= AABB_MARGIN), 2)  # (K, O)
-    for k in np.flatnonzero(on_shelf).tolist():
-        if _clear_of(state, polys[k], np.flatnonzero(near[k]).tolist()):
-            return k
-    return None
+    candidates = np.flatnonzero(on_shelf)
+    if not len(candidates) or not near[candidates[0]].any():  # none on the shelf, or the first is clear of everything
+        return int(candidates[0]) if len(candidates) else None
+    pose, obstacle = np.nonzero(near[candidates])  # the pairs to test (pose: an index into candidates)
+    blocked = np.zeros(len(candidates), bool)
+    blocked[pose[_overlapping(state, polys[candidates], pose, obstacle)]] = True
+    clear = np.flatnonzero(~blocked)
+    return int(candidates[clear[0]]) if len(clear) else None
 
 
-def _clear_of(state: RecreatedState, poly: np.ndarray, obstacles: list[int]) -> bool:
-    """Whether the target outline ``poly`` overlaps none of the state's obstacle outlines
-    ``obstacles`` (indices into :attr:`RecreatedState.obstacle_outlines`)."""
-    if not obstacles:
-        return True
-    own = edge_normals(poly)
-    outlines, edges = state.obstacle_outlines, state.obstacle_edges
-    for i in obstacles:
-        if separated_along(*own, outlines[i][0]):
-            continue
-        if edges[i] is None:
-            edges[i] = edge_normals(outlines[i][0])
-        if not separated_along(*edges[i], poly):
-            return False
-    return True
+def _overlapping(state: RecreatedState, polys: np.ndarray, pose: np.ndarray, obstacle: np.ndarray) -> np.ndarray:
+    """Whether target outline ``polys[pose[j]]`` overlaps obstacle outline ``obstacle[j]``
+    (:attr:`RecreatedState.obstacle_axes`), for every pair j: the separating-axis test of
+    :func:`~occrl.envs.geometry.polygons_overlap`, bit for bit (the projections are the same
+    products, one matrix product per pair as ``separated_along`` makes them)."""
+    points, normals, offsets = state.obstacle_axes
+    own_normals, own_offsets = edge_normals(polys)  # (K, V, 2), (K, V)
+    # the obstacle's points all beyond one of the target's edges
+    least = np.matmul(points[obstacle], own_normals[pose].transpose(0, 2, 1)).min(1)  # (J, V)
+    separated = np.logical_or.reduce(least - own_offsets[pose] >= 0.0, 1)
+    # else the target's points all beyond one of the obstacle's edges
+    rest = np.flatnonzero(~separated)
+    if len(rest):
+        least = np.matmul(polys[pose[rest]], normals[obstacle[rest]].transpose(0, 2, 1)).min(1)
+        separated[rest] = np.logical_or.reduce(least - offsets[obstacle[rest]] >= 0.0, 1)
+    return ~separated
 
 
 def with_target(state: RecreatedState, pose) -> RecreatedState:

@@ -330,6 +330,7 @@ def rhp_batched(
     eps = noise.reshape(n, depth, noise.shape[-1])
     ret = np.zeros(n)
     alive = np.ones(n, dtype=bool)
+    live = list(range(n))  # the roll-outs not yet ended, in order (alive's indices)
     first = np.zeros((n, 4))
     paths = np.full((n, depth + 1, 3), np.nan)
     paths[:, 0] = [w.gripper_pose() for w in worlds]
@@ -339,30 +340,33 @@ def rhp_batched(
         action = rollout_action(out, eps[:, j]).clamp(-1.0, 1.0).numpy().astype(np.float64)
         if j == 0:
             first = action.copy()
-        for k in np.flatnonzero(alive):
-            outcome = worlds[k].step(action[k])
+        rows = action.tolist()  # (each world's step reads its action as Python floats: the same values)
+        for k in live:
+            outcome = worlds[k].step(rows[k])
             paths[k, j + 1] = worlds[k].gripper_pose()
-            steps += 1
             ret[k] += discount * outcome.reward
             if outcome.terminal:
                 alive[k] = False
+        steps += len(live)
         discount *= gamma
-        if not alive.any():
-            break
-        idx = torch.from_numpy(np.flatnonzero(alive))
-        if len(idx) == n:  # every roll-out goes on: the step's outputs are the new rows as they are
+        if len(live) == n and alive.all():  # every roll-out goes on: the step's outputs are the new rows as they are
             out, h, c = stepper.step(render_pixels(worlds, size), h, c)
             continue
-        sub, h_new, c_new = stepper.step(render_pixels([worlds[k] for k in idx.tolist()], size), h[idx], c[idx])
+        live = np.flatnonzero(alive).tolist()
+        if not live:
+            break
+        idx = torch.tensor(live, dtype=torch.int64)
+        sub, h_new, c_new = stepper.step(render_pixels([worlds[k] for k in live], size), h[idx], c[idx])
         # alive rows move on; finished rows keep their last outputs (never read again)
         out = {key: value.clone() for key, value in out.items()}
         for key, value in out.items():
             value[idx] = sub[key]
         h, c = h.clone(), c.clone()
         h[idx], c[idx] = h_new, c_new
-    if alive.any():
-        idx = torch.from_numpy(np.flatnonzero(alive))
-        ret[alive] += discount * stepper.value({key: value[idx] for key, value in out.items()}).numpy()
+    if live:
+        # the live roll-outs' last outputs (all of them as they are when none ended)
+        last = out if len(live) == n else {key: value[torch.tensor(live, dtype=torch.int64)] for key, value in out.items()}
+        ret[alive] += discount * stepper.value(last).numpy()
     return _finish(ret.reshape(R, m), first.reshape(R, m, 4), steps, paths.reshape(R, m, depth + 1, 3))
 
 

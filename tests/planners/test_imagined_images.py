@@ -276,3 +276,25 @@ def test_hybrid_planner_advances_the_lstm_as_the_tensordict_modules_do():
     assert torch.equal(out["heatmap"], expected["heatmap"])
     for key in (("next", "recurrent_state_h"), ("next", "recurrent_state_c")):
         assert torch.equal(out[key], expected[key])
+
+
+def test_detected_polygons_without_slot_arrays_are_the_observations():
+    """world_pixels reads the detections straight from the worlds (worlds_detected_polygons): the
+    polygons and target flags the observation's slot arrays give, bit for bit, on env worlds and
+    on recreated worlds (hypothesised and unseen held targets, no target at all). (Its padded
+    copy for the renderer: the tests above, world_pixels against the env's pixels.)"""
+    from occrl.envs.observation import detected_world_polygons, detection_arrays, worlds_detected_polygons, worlds_visible_fractions
+    from occrl.planners import with_target
+
+    checked = 0
+    for td in _visited_observations(stage=3, noise=0.1, seed=11, steps=12, reset_done=False):
+        states = [recreate(td[b]) for b in range(td.shape[0])]
+        worlds = [make_world(s) for s in states] + [make_world(with_target(s, (0.0, 0.3, 0.4))) for s in states if not s.target_detected]
+        fractions = worlds_visible_fractions(worlds)
+        a = detection_arrays(worlds, fractions)
+        slots = detected_world_polygons(a["detected"], a["type_id"], a["pose"], a["vertices"], a["num_vertices"], a["target_type"])
+        for (ps, flags), (qs, direct_flags) in zip(slots, worlds_detected_polygons(worlds, fractions)):
+            assert flags == direct_flags and len(ps) == len(qs)
+            assert all(p.dtype == q.dtype and np.array_equal(p, q) for p, q in zip(ps, qs))
+            checked += len(ps)
+    assert checked > 100

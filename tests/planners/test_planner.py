@@ -217,6 +217,36 @@ def test_target_fits_skips_only_polygons_whose_boxes_are_apart():
     assert any(answers) and not all(answers)
 
 
+def test_first_fitting_pose_is_the_first_pose_the_full_test_lets_fit():
+    # the separating-axis test of every pose and obstacle at once gives the answer of trying the
+    # poses one by one with polygons_overlap against every known polygon
+    from occrl.envs.geometry import polygons_overlap, transform_points
+    from occrl.envs.shelf_geometry import gripper_polygons
+    from occrl.envs.world_constants import SHELF_DEPTH, SHELF_HALF_WIDTH
+    from occrl.planners.recreate import first_fitting_pose
+
+    env = make_env(batch_size=4, stage=3, seed=5, heatmap_target=False)
+    rng = np.random.default_rng(1)
+    found = []
+    for b in range(4):
+        state = recreate(env.reset()[b])
+        others = state.polygons() + [transform_points(p, state.gripper_pose) for p in gripper_polygons(state.opening)]
+        centres = np.array([o.mean(0) for o in others])
+        for _ in range(40):  # poses crowded around the known objects, most of them overlapping one
+            near = centres[rng.integers(len(centres), size=12)] + rng.normal(0.0, 0.04, (12, 2))
+            poses = np.c_[near, rng.uniform(-np.pi, np.pi, 12)]
+            fits = []
+            for pose in poses:
+                poly = transform_points(state.target_vertices, pose)
+                lo, hi = poly.min(0), poly.max(0)
+                inside = lo[0] >= -SHELF_HALF_WIDTH and hi[0] <= SHELF_HALF_WIDTH and lo[1] >= 0.0 and hi[1] <= SHELF_DEPTH
+                fits.append(inside and not any(polygons_overlap(poly, o) for o in others))
+            expected = fits.index(True) if any(fits) else None
+            assert first_fitting_pose(state, poses) == expected
+            found.append(expected)
+    assert None in found and 0 in found and any(k not in (None, 0) for k in found)
+
+
 def test_heatmap_peaks_sum_the_same_disks_as_the_whole_map_grid():
     """heatmap_peaks works in a window around each peak: the same peaks and masses, bit for bit,
     as the disk tested on the whole map's pixel grid (float and negative radii included)."""

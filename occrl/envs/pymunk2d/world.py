@@ -258,6 +258,9 @@ class ShelfWorld:
         self._kept_impulses: joint_reset.ImpulseSlots | None = None  # their accumulated impulses, zeroed at every action
         self._shapes_in_space = False
         self._dynamic_shapes = [*self.gripper_shapes, *self.shapes]  # removed and re-added at every action
+        # (their and the bodies' Chipmunk pointers, for the calls made at every action)
+        self._dynamic_shape_pointers = [shape._shape for shape in self._dynamic_shapes]
+        self._body_pointers = [body._body for body in (self.control, self.gripper, *self.bodies)]
         self._filtered: int | None = None  # object whose shape is in the gripper's group
         for i in range(self.num_objects):
             self._set_physics(i, self.nominal_vertices[i], C.NOMINAL_DENSITY, C.NOMINAL_FRICTION)
@@ -279,19 +282,21 @@ class ShelfWorld:
 
     def _set_poses(self, gripper_pose: np.ndarray, object_poses: np.ndarray) -> None:
         # Chipmunk's setters called directly (what pymunk's properties call, without their overhead)
-        for body, pose in ((self.control, gripper_pose), (self.gripper, gripper_pose)):
-            _cp.cpBodySetPosition(body._body, (float(pose[0]), float(pose[1])))
-            _cp.cpBodySetAngle(body._body, float(pose[2]))
-        for body, pose in zip(self.bodies, object_poses):
-            _cp.cpBodySetPosition(body._body, (float(pose[0]), float(pose[1])))
-            _cp.cpBodySetAngle(body._body, float(pose[2]))
+        # (as Python floats, one conversion each: the same values as float() of each entry)
+        gripper = np.asarray(gripper_pose, dtype=float).reshape(3).tolist()
+        rows = [gripper, gripper, *np.asarray(object_poses, dtype=float).reshape(-1, 3).tolist()]  # control, gripper, objects
+        position, angle = _cp.cpBodySetPosition, _cp.cpBodySetAngle
+        for body, (x, y, th) in zip(self._body_pointers, rows):
+            position(body, (x, y))
+            angle(body, th)
         self._bring_to_rest()
 
     def _bring_to_rest(self) -> None:
         """Zero every body's velocity and angular velocity."""
-        for body in (self.control, self.gripper, *self.bodies):
-            _cp.cpBodySetVelocity(body._body, _AT_REST)
-            _cp.cpBodySetAngularVelocity(body._body, 0.0)
+        velocity, angular = _cp.cpBodySetVelocity, _cp.cpBodySetAngularVelocity
+        for body in self._body_pointers:
+            velocity(body, _AT_REST)
+            angular(body, 0.0)
 
     def _cold_start(self) -> None:
         """Put the solver in a canonical state: no cached contacts or joint impulses, fixed shape
@@ -301,8 +306,9 @@ class ShelfWorld:
             # The shapes leave Chipmunk's space and come back below in the same order; pymunk's
             # bookkeeping (which shapes the space holds) stays as it is, so Chipmunk is called
             # directly: the same C calls pymunk's remove and add make, without their overhead.
-            for shape in self._dynamic_shapes:
-                _cp.cpSpaceRemoveShape(space._space, shape._shape)
+            remove, space_pointer = _cp.cpSpaceRemoveShape, space._space
+            for shape in self._dynamic_shape_pointers:
+                remove(space_pointer, shape)
             if self._constraints:  # (pymunk's remove and add cost even with nothing to do)
                 space.remove(*self._constraints)
         _cp.cpSpaceSetShapeIDCounter(space._space, self._shape_id_base)
@@ -344,8 +350,9 @@ class ShelfWorld:
                 self.shapes[self.held].filter = _IN_GRIPPER_GROUP
             self._filtered = self.held
         if self._shapes_in_space:
-            for shape in self._dynamic_shapes:
-                _cp.cpSpaceAddShape(space._space, shape._shape)
+            add, space_pointer = _cp.cpSpaceAddShape, space._space
+            for shape in self._dynamic_shape_pointers:
+                add(space_pointer, shape)
             if cons:
                 space.add(*cons)
         else:
@@ -356,8 +363,9 @@ class ShelfWorld:
         _cp.cpSpaceSetTimestamp(space._space, 0)
         # Chipmunk carries each body's position-correction ("bias") velocity into the next step;
         # a zero-length position update clears it without moving the body.
-        for body in (self.control, self.gripper, *self.bodies):
-            _cp.cpBodyUpdatePosition(body._body, 0.0)
+        update = _cp.cpBodyUpdatePosition
+        for body in self._body_pointers:
+            update(body, 0.0)
 
     def _drive_and_floor_joints(self) -> list[pymunk.Constraint]:
         """New joints: the gripper's drive (pivot, gear) and each object's floor friction (pivot,
