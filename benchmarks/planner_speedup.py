@@ -3,7 +3,7 @@
 Usage:
     git worktree add /tmp/occrl-ref <commit>        # the code to compare against
     python benchmarks/planner_speedup.py --reference /tmp/occrl-ref [--decisions 24] [--rounds 2] [--inference onnxruntime] [--weights occnet]
-    python benchmarks/planner_speedup.py --reference /tmp/occrl-ref --episodes 8 [--rounds 2] [--method hybrid-2x2]
+    python benchmarks/planner_speedup.py --reference /tmp/occrl-ref --episodes 8 [--rounds 2] [--method hybrid-2x2] [--save runs.json]
 
 Both sides take the same decisions (observations along scripted stage-2 episodes, one planner per
 m x h that sees them in episode order, as in an episode) in child processes on one core each,
@@ -20,7 +20,9 @@ side's planner built and rebuilt in the first round (where the checkout counts t
 pooled percentiles compare each side's own episodes, whose mix of cheap (one root) and dear
 (three roots) decisions differs where the episodes differ (ONNX Runtime's rounding turns
 near-ties); the line "the same work" compares only the decisions of the episodes both sides
-played alike, decision for decision: the like-for-like ratio.
+played alike (the same actions at every step, to 1e-3), decision for decision: the like-for-like ratio; under it, the median of each such
+decision's own ratio (this / reference), which does not depend on where the percentile of a mix
+of cheap and dear decisions falls. ``--save`` writes every run's times for a closer look.
 """
 
 from __future__ import annotations
@@ -81,6 +83,7 @@ from occrl.eval.methods import make_method
 tasks = int(sys.argv[1])
 options = {"inference": sys.argv[2]} if sys.argv[2] != "torch" else {}
 method = make_method(sys.argv[4], weights=sys.argv[3], **options)
+batch = int(sys.argv[5])
 
 
 # the planner keeps only its latest decisions (it deletes the oldest hundred past 200): time them all
@@ -89,16 +92,16 @@ class KeepAll(list):
         pass
 method.policy.decisions = KeepAll()
 seeds = [10_000_000 + i for i in range(tasks)]
-wall, results, decisions, roots, owners = 0.0, [], [], [], []
-# batches of 16 worlds, as occrl eval runs them, one planner for all. The planner decides for every
-# world of a batch at every step, world by world, also for worlds whose episode has ended (one
-# checkout leaves them as they ended, another resets them): only the decisions of a world's own
-# episode count, step t of world b being decision t * B + b of its batch.
-for start in range(0, tasks, 16):
-    chunk = seeds[start : start + 16]
+wall, results, decisions, roots, owners, chosen = 0.0, [], [], [], [], []
+# batches of `batch` worlds (16, as occrl eval runs them), one planner for all. The planner decides
+# for every world of a batch at every step, world by world, also for worlds whose episode has ended
+# (one checkout leaves them as they ended, another resets them): only the decisions of a world's
+# own episode count, step t of world b being decision t * B + b of its batch.
+for start in range(0, tasks, batch):
+    chunk = seeds[start : start + batch]
     before = len(method.policy.decisions)
     t = time.perf_counter()
-    out = run_episodes(method.policy, task_scenes(2, chunk), chunk, 0.0, 16, method.primers, method.exploration)
+    out = run_episodes(method.policy, task_scenes(2, chunk), chunk, 0.0, batch, method.primers, method.exploration)
     wall += time.perf_counter() - t
     results += out
     made = method.policy.decisions[before:]
@@ -107,13 +110,14 @@ for start in range(0, tasks, 16):
     for k, d in enumerate(made):
         if k // len(chunk) < actions[chunk[k % len(chunk)]]:
             decisions.append(d.seconds)
+            chosen.append([float(v) for v in d.action])
             roots.append(len(d.roots))
             owners.append([chunk[k % len(chunk)], k // len(chunk)])  # (episode seed, step)
 # the roll-out worlds the planner built and rebuilt (a checkout whose planner keeps none, or does
 # not count them: None)
 pool = getattr(method.policy, "pool", None)
 built, rebuilt = getattr(pool, "built", None), getattr(pool, "rebuilt", None)
-print(json.dumps({"wall": wall, "decisions": decisions, "roots": roots, "owners": owners, "episodes": [[r.seed, bool(r.success), int(r.actions)] for r in results], "built": built, "rebuilt": rebuilt}))
+print(json.dumps({"wall": wall, "decisions": decisions, "roots": roots, "owners": owners, "actions": chosen, "episodes": [[r.seed, bool(r.success), int(r.actions)] for r in results], "built": built, "rebuilt": rebuilt}))
 """
 
 
@@ -122,14 +126,23 @@ def round_ratios(runs: dict[str, list[dict]], q: float) -> list[float]:
     return [float(np.percentile(a["decisions"], q) / np.percentile(b["decisions"], q)) for a, b in zip(runs["this"], runs["reference"])]
 
 
-def same_work(runs: dict[str, list[dict]]) -> tuple[int, dict[str, list[np.ndarray]]]:
-    """The decisions of the episodes both sides played alike (seed, success and actions the same
-    in every round of both sides), each side's times (ms) per round in one order, (seed, step)
-    by (seed, step): the same decisions on the same observations, so their percentiles compare
-    the same work, whatever the other episodes' mix of decisions. Returns the number of such
+def same_work(runs: dict[str, list[dict]], atol: float = 1e-3) -> tuple[int, dict[str, list[np.ndarray]]]:
+    """The decisions of the episodes both sides played alike (seed, success and length the same,
+    and every step's action within ``atol`` of the reference's first round, in every round of
+    both sides), each side's times (ms) per round in one order, (seed, step) by (seed, step): the
+    same decisions on the same observations, so their percentiles compare the same work, whatever
+    the other episodes' mix of decisions. (Seed, success and length alone do not make an episode
+    the same: a failed one runs to the step limit whatever it did.) Returns the number of such
     episodes and the times."""
     played = [{tuple(e) for e in run["episodes"]} for side in runs for run in runs[side]]
     alike = {e[0] for e in set.intersection(*played)}
+    if all("actions" in run for side in runs for run in runs[side]):  # (a checkout that records them)
+        first = runs["reference"][0]
+        recorded = {tuple(o): a for o, a in zip(first["owners"], first["actions"])}
+        for run in (run for side in runs for run in runs[side]):
+            for o, a in zip(run["owners"], run["actions"]):
+                if o[0] in alike and not (tuple(o) in recorded and np.allclose(a, recorded[tuple(o)], atol=atol)):
+                    alike.discard(o[0])
     times: dict[str, list[np.ndarray]] = {}
     for side in runs:
         times[side] = []
@@ -154,10 +167,12 @@ def by_roots(t: dict[str, np.ndarray], k: dict[str, np.ndarray], rounds: int) ->
     return "by the decisions' roots: " + "; ".join(parts)
 
 
-def measure(root: Path, weights: str, decisions: int, inference: str = "torch", episodes: int = 0, method: str = "hybrid-4x4") -> dict:
+def measure(
+    root: Path, weights: str, decisions: int, inference: str = "torch", episodes: int = 0, method: str = "hybrid-4x4", batch: int = 16
+) -> dict:
     env = dict(os.environ, PYTHONPATH=str(root), OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
     args = (
-        [EPISODES_CHILD, str(episodes), inference, weights, method]
+        [EPISODES_CHILD, str(episodes), inference, weights, method, str(batch)]
         if episodes
         else [CHILD, str(decisions), json.dumps(SIZES), inference, weights]
     )
@@ -198,6 +213,15 @@ def main() -> None:
         help="the network both sides plan with: a weights file or a name shipped in this checkout (default occnet; "
         "occnet-warmstart for the figures measured before occrl 0.3.0, when it was the default)",
     )
+    parser.add_argument(
+        "--batch",
+        type=int,
+        default=16,
+        help="with --episodes: worlds played together (16, as occrl eval); 1 plays each episode alone, so that "
+        "the planner's noise for one world does not depend on how the other side treats another world's ended episode "
+        "(a623dfe resets it, later checkouts leave it): the same episodes on both sides, for the same work",
+    )
+    parser.add_argument("--save", default=None, help="with --episodes: write every run's times, roots and episodes (JSON) here")
     args = parser.parse_args()
     if args.method != "hybrid-4x4" and not args.episodes:
         parser.error("--method applies with --episodes (the decision benchmark times 2x2, 4x4 and 6x6 together)")
@@ -215,7 +239,9 @@ def main() -> None:
     for r in range(args.rounds):
         for side, root in (("reference", ref), ("this", here)) if r % 2 == 0 else (("this", here), ("reference", ref)):
             runs[side].append(
-                measure(root, weights, args.decisions, args.inference if side == "this" else "torch", args.episodes, args.method)
+                measure(
+                    root, weights, args.decisions, args.inference if side == "this" else "torch", args.episodes, args.method, args.batch
+                )
             )
             print(f"round {r + 1}/{args.rounds}: {side} done", flush=True)
     if args.episodes:
@@ -224,7 +250,7 @@ def main() -> None:
         t = {side: 1e3 * np.concatenate([run["decisions"] for run in runs[side]]) for side in runs}
         p = {side: (np.percentile(v, 50), np.percentile(v, 95)) for side, v in t.items()}
         print(
-            f"\n{args.episodes} held-out stage-2 episodes of {args.method} x {args.rounds} rounds, one core per side; reference: {ref}; "
+            f"\n{args.episodes} held-out stage-2 episodes of {args.method} in batches of {args.batch} x {args.rounds} rounds, one core per side; reference: {ref}; "
             f"this side's inference: {args.inference}\nwall per round: reference {', '.join(f'{w:.1f}' for w in wall['reference'])} s, "
             f"this {', '.join(f'{w:.1f}' for w in wall['this'])} s; ratio of the medians {np.median(wall['this']) / np.median(wall['reference']):.2f}x; "
             f"the same episodes (seed, success, actions) in {same}/{args.episodes}\n"
@@ -248,6 +274,16 @@ def main() -> None:
                 f"p95 {q['reference'][1]:.1f} -> {q['this'][1]:.1f} ms ({q['this'][1] / q['reference'][1]:.2f}x); "
                 f"round by round: p50 {', '.join(f'{a:.2f}x' for a, _ in rounds)}, p95 {', '.join(f'{b:.2f}x' for _, b in rounds)}"
             )
+            # each decision against itself (the percentiles of a mix of cheap one-root and dear
+            # three-root decisions can fall between the two where each side's mix of ranks differs)
+            each = np.concatenate([a / b for a, b in zip(w["this"], w["reference"])])
+            lo, mid, hi = np.percentile(each, [5, 50, 95])
+            print(
+                f"  decision by decision (this / reference of each decision, every round): median {mid:.2f}x (5th-95th percentile {lo:.2f}-{hi:.2f}x)"
+            )
+        if args.save:
+            Path(args.save).write_text(json.dumps(runs))
+            print(f"every run's times written to {args.save}")
         first = {side: runs[side][0] for side in runs}
         counts = {side: f"{r['built']} / {r['rebuilt']}" if r.get("built") is not None else "not counted" for side, r in first.items()}
         print(f"roll-out worlds built / rebuilt (first round): reference {counts['reference']}, this {counts['this']}")

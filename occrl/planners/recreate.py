@@ -165,8 +165,8 @@ def target_fits(state: RecreatedState, pose) -> bool:
 def first_fitting_pose(state: RecreatedState, poses) -> int | None:
     """The index of the first of ``poses`` ((K, 3), tried in order) at which the target fits
     (:func:`target_fits`), or None: the same answer as trying them one by one, with the shelf
-    bounds and the bounding boxes of every pose tested at once (only poses that pass both and
-    come near an obstacle take the separating-axis test, in order, until one fits).
+    bounds, the bounding boxes and then the separating-axis test of every pose that passes both
+    and comes near an obstacle tested at once (bit for bit the one-by-one test's projections).
 
     Examples:
         >>> import numpy as np
