@@ -245,7 +245,9 @@ def worlds_detected_polygons(
 
 def _detections(worlds: Sequence, fractions: Sequence[np.ndarray], poses: Sequence[np.ndarray] | None) -> tuple[list, np.ndarray]:
     """:func:`worlds_detected_polygons`, and the detected polygons of every world laid end to end
-    (n, V, 2), padded as the worlds pad them (each polygon's list entry is a view of its row)."""
+    (n, V, 2), padded as the worlds pad their ``padded_vertices`` (by repeating each polygon's
+    first vertex, as ``ShelfWorld`` and :func:`pad_polygon` do; the renderer relies on it), each
+    polygon's list entry a view of its row."""
     counts = [w.num_objects for w in worlds]
     fractions = [np.asarray(f) for f in fractions]
     if [len(f) for f in fractions] != counts:

@@ -303,10 +303,10 @@ def render_labels_at_pixels(
     return out.reshape(shape)
 
 
-def _render_regions(gripper_poses, openings, detections, canvas: Canvas, fov: float, regions, padded: np.ndarray | None = None):
+def _render_regions(gripper_poses, openings, detections, canvas: Canvas, fov: float, regions, detections_padded: np.ndarray | None = None):
     """Each world's label map over its region (row0, row1, col1) of the canvas: rows row0 to
-    row1 - 1, columns 0 to col1 - 1, as raw uint8 bytes (row1 - row0 rows of col1). ``padded``:
-    as :func:`render_labels_at_pixels`'."""
+    row1 - 1, columns 0 to col1 - 1, as raw uint8 bytes (row1 - row0 rows of col1).
+    ``detections_padded``: :func:`render_labels_at_pixels`' ``padded``."""
     poses = np.asarray(gripper_poses, dtype=float).reshape(-1, 3)
     openings = np.asarray(openings, dtype=float).reshape(-1)
     B = len(poses)
@@ -315,7 +315,10 @@ def _render_regions(gripper_poses, openings, detections, canvas: Canvas, fov: fl
     most = max(counts, default=0)
     # every world's objects in slots 0 to n_b - 1 (spare slots up to the most: a wall, cast and
     # never drawn), then the walls
-    detected = padded if padded is not None else pad_polygons([p for polys, _ in detections for p in polys], C.MAX_VERTICES)
+    if detections_padded is not None:
+        detected = detections_padded
+    else:
+        detected = pad_polygons([p for polys, _ in detections for p in polys], C.MAX_VERTICES)
     padded, _ = pack_polygon_lists(detected, counts, walls_padded)
     P, V = padded.shape[1], padded.shape[2]
     arc = _FOV_ARC[fov] if fov in _FOV_ARC else _fov_arc(fov)

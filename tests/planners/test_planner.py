@@ -191,10 +191,27 @@ def test_planning_several_worlds_together_decides_as_one_world_at_a_time():
         )
 
 
+def _known_polygons(state):
+    from occrl.envs.geometry import transform_points
+    from occrl.envs.shelf_geometry import gripper_polygons
+
+    return state.polygons() + [transform_points(p, state.gripper_pose) for p in gripper_polygons(state.opening)]
+
+
+def _fits_by_the_full_test(state, others, pose) -> bool:
+    """The target at ``pose`` lies on the shelf and overlaps none of ``others`` (polygons_overlap
+    against every one of them, no pre-test)."""
+    from occrl.envs.geometry import polygons_overlap, transform_points
+    from occrl.envs.world_constants import SHELF_DEPTH, SHELF_HALF_WIDTH
+
+    poly = transform_points(state.target_vertices, pose)
+    lo, hi = poly.min(0), poly.max(0)
+    inside = lo[0] >= -SHELF_HALF_WIDTH and hi[0] <= SHELF_HALF_WIDTH and lo[1] >= 0.0 and hi[1] <= SHELF_DEPTH
+    return bool(inside and not any(polygons_overlap(poly, o) for o in others))
+
+
 def test_target_fits_skips_only_polygons_whose_boxes_are_apart():
     # the box pre-test changes no answer of the separating-axis test over every known polygon
-    from occrl.envs.geometry import polygons_overlap, transform_points
-    from occrl.envs.shelf_geometry import gripper_polygons
     from occrl.envs.world_constants import SHELF_DEPTH, SHELF_HALF_WIDTH
 
     env = make_env(batch_size=4, stage=2, seed=3, heatmap_target=False)
@@ -202,27 +219,17 @@ def test_target_fits_skips_only_polygons_whose_boxes_are_apart():
     answers = []
     for b in range(4):
         state = recreate(env.reset()[b])
-        others = state.polygons() + [transform_points(p, state.gripper_pose) for p in gripper_polygons(state.opening)]
-        for x, y, th in rng.uniform([-SHELF_HALF_WIDTH, 0.0, -np.pi], [SHELF_HALF_WIDTH, SHELF_DEPTH, np.pi], (150, 3)):
-            poly = transform_points(state.target_vertices, (x, y, th))
-            inside = (
-                poly.min(0)[0] >= -SHELF_HALF_WIDTH
-                and poly.max(0)[0] <= SHELF_HALF_WIDTH
-                and poly.min(0)[1] >= 0.0
-                and poly.max(0)[1] <= SHELF_DEPTH
-            )
-            full = inside and not any(polygons_overlap(poly, o) for o in others)
+        others = _known_polygons(state)
+        for pose in rng.uniform([-SHELF_HALF_WIDTH, 0.0, -np.pi], [SHELF_HALF_WIDTH, SHELF_DEPTH, np.pi], (150, 3)):
+            full = _fits_by_the_full_test(state, others, pose)
             answers.append(full)
-            assert target_fits(state, (x, y, th)) == full
+            assert target_fits(state, pose) == full
     assert any(answers) and not all(answers)
 
 
 def test_first_fitting_pose_is_the_first_pose_the_full_test_lets_fit():
     # the separating-axis test of every pose and obstacle at once gives the answer of trying the
     # poses one by one with polygons_overlap against every known polygon
-    from occrl.envs.geometry import polygons_overlap, transform_points
-    from occrl.envs.shelf_geometry import gripper_polygons
-    from occrl.envs.world_constants import SHELF_DEPTH, SHELF_HALF_WIDTH
     from occrl.planners.recreate import first_fitting_pose
 
     env = make_env(batch_size=4, stage=3, seed=5, heatmap_target=False)
@@ -230,17 +237,12 @@ def test_first_fitting_pose_is_the_first_pose_the_full_test_lets_fit():
     found = []
     for b in range(4):
         state = recreate(env.reset()[b])
-        others = state.polygons() + [transform_points(p, state.gripper_pose) for p in gripper_polygons(state.opening)]
+        others = _known_polygons(state)
         centres = np.array([o.mean(0) for o in others])
         for _ in range(40):  # poses crowded around the known objects, most of them overlapping one
             near = centres[rng.integers(len(centres), size=12)] + rng.normal(0.0, 0.04, (12, 2))
             poses = np.c_[near, rng.uniform(-np.pi, np.pi, 12)]
-            fits = []
-            for pose in poses:
-                poly = transform_points(state.target_vertices, pose)
-                lo, hi = poly.min(0), poly.max(0)
-                inside = lo[0] >= -SHELF_HALF_WIDTH and hi[0] <= SHELF_HALF_WIDTH and lo[1] >= 0.0 and hi[1] <= SHELF_DEPTH
-                fits.append(inside and not any(polygons_overlap(poly, o) for o in others))
+            fits = [_fits_by_the_full_test(state, others, pose) for pose in poses]
             expected = fits.index(True) if any(fits) else None
             assert first_fitting_pose(state, poses) == expected
             found.append(expected)
