@@ -40,3 +40,24 @@ def test_same_work_needs_an_episode_alike_in_every_round():
     b = _run([[7, False, 1]], [[7, 0]], [0.01])  # round 2 of this side played episode 7 otherwise
     alike, times = same_work({"this": [a, b], "reference": [a, a]})
     assert alike == 0 and all(len(t) == 0 for t in times["this"])
+
+
+def test_same_work_needs_the_same_action_at_every_step_where_the_runs_record_them():
+    # two failed episodes of the full length agree in seed, outcome and length whatever they did:
+    # where the runs record each decision's action, an episode is alike only if every step's
+    # action agrees (to 1e-3) with the reference's first round
+    same_work = _same_work()
+
+    def run(actions_8):
+        out = _run([[7, False, 2], [8, False, 2]], [[7, 0], [7, 1], [8, 0], [8, 1]], [0.01, 0.02, 0.03, 0.04])
+        return {**out, "actions": [[0.5, 0.0, 0.0, 1.0], [0.1, 0.2, 0.0, -1.0], *actions_8]}
+
+    ref = run([[0.0, 0.0, 0.0, 1.0], [0.3, 0.3, 0.0, 1.0]])
+    this = run([[0.0, 0.0, 0.0, 1.0], [-0.7, 0.3, 0.0, 1.0]])  # episode 8 parts at its second step
+    nearly = {**this, "actions": [[a + 5e-4 for a in row] for row in this["actions"]]}
+    alike, times = same_work({"this": [this, nearly], "reference": [ref, ref]})
+    assert alike == 1
+    np.testing.assert_allclose(times["reference"][0], [10.0, 20.0])  # episode 7's two decisions
+    # without recorded actions (an older checkout), the old test: seed, outcome and length
+    plain = [{k: v for k, v in r.items() if k != "actions"} for r in (this, ref)]
+    assert same_work({"this": [plain[0]], "reference": [plain[1]]})[0] == 2
