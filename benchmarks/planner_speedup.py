@@ -3,7 +3,7 @@
 Usage:
     git worktree add /tmp/occrl-ref <commit>        # the code to compare against
     python benchmarks/planner_speedup.py --reference /tmp/occrl-ref [--decisions 24] [--rounds 2] [--inference onnxruntime] [--weights occnet]
-    python benchmarks/planner_speedup.py --reference /tmp/occrl-ref --episodes 8 [--rounds 2] [--method hybrid-2x2] [--save runs.json]
+    python benchmarks/planner_speedup.py --reference /tmp/occrl-ref --episodes 8 [--rounds 2] [--method hybrid-2x2] [--batch 1] [--save runs.json]
 
 Both sides take the same decisions (observations along scripted stage-2 episodes, one planner per
 m x h that sees them in episode order, as in an episode) in child processes on one core each,
@@ -223,6 +223,8 @@ def main() -> None:
     )
     parser.add_argument("--save", default=None, help="with --episodes: write every run's times, roots and episodes (JSON) here")
     args = parser.parse_args()
+    if args.batch < 1:
+        parser.error(f"--batch must be a number of worlds >= 1, got {args.batch}")
     if args.method != "hybrid-4x4" and not args.episodes:
         parser.error("--method applies with --episodes (the decision benchmark times 2x2, 4x4 and 6x6 together)")
     from occrl.pretrained import network_name, weights_file
