@@ -329,8 +329,7 @@ def rhp_batched(
     h, c = h.repeat_interleave(m, dim=0), c.repeat_interleave(m, dim=0)
     eps = noise.reshape(n, depth, noise.shape[-1])
     ret = np.zeros(n)
-    alive = np.ones(n, dtype=bool)
-    live = list(range(n))  # the roll-outs not yet ended, in order (alive's indices)
+    live = list(range(n))  # the roll-outs not yet ended, in order
     first = np.zeros((n, 4))
     paths = np.full((n, depth + 1, 3), np.nan)
     paths[:, 0] = [w.gripper_pose() for w in worlds]
@@ -341,23 +340,24 @@ def rhp_batched(
         if j == 0:
             first = action.copy()
         rows = action.tolist()  # (each world's step reads its action as Python floats: the same values)
+        ended = set()
         for k in live:
             outcome = worlds[k].step(rows[k])
             paths[k, j + 1] = worlds[k].gripper_pose()
             ret[k] += discount * outcome.reward
             if outcome.terminal:
-                alive[k] = False
+                ended.add(k)
         steps += len(live)
         discount *= gamma
-        if len(live) == n and alive.all():  # every roll-out goes on: the step's outputs are the new rows as they are
+        if not ended and len(live) == n:  # every roll-out goes on: the step's outputs are the new rows as they are
             out, h, c = stepper.step(render_pixels(worlds, size), h, c)
             continue
-        live = np.flatnonzero(alive).tolist()
+        live = [k for k in live if k not in ended]
         if not live:
             break
         idx = torch.tensor(live, dtype=torch.int64)
         sub, h_new, c_new = stepper.step(render_pixels([worlds[k] for k in live], size), h[idx], c[idx])
-        # alive rows move on; finished rows keep their last outputs (never read again)
+        # live rows move on; ended rows keep their last outputs (never read again)
         out = {key: value.clone() for key, value in out.items()}
         for key, value in out.items():
             value[idx] = sub[key]
@@ -366,7 +366,7 @@ def rhp_batched(
     if live:
         # the live roll-outs' last outputs (all of them as they are when none ended)
         last = out if len(live) == n else {key: value[torch.tensor(live, dtype=torch.int64)] for key, value in out.items()}
-        ret[alive] += discount * stepper.value(last).numpy()
+        ret[live] += discount * stepper.value(last).numpy()
     return _finish(ret.reshape(R, m), first.reshape(R, m, 4), steps, paths.reshape(R, m, depth + 1, 3))
 
 
