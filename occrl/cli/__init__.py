@@ -1,9 +1,11 @@
 """Command line: ``occrl demo | train | eval | export | bench``.
 
-``occrl demo`` runs the hybrid planner with the shipped network on a few random shelves and writes
-a summary and a GIF (the privileged scripted retriever when no network is shipped). The parser is
-here; what each command does is in :mod:`occrl.cli.commands` (``export``: :mod:`occrl.cli.export`), the option types in
-:mod:`occrl.cli.options`.
+``occrl demo`` runs the hybrid planner with the shipped network on a few cluttered shelves whose
+target starts hidden and writes a summary and a GIF. The parser is here; what each command does is
+in :mod:`occrl.cli.commands` (``demo``: :mod:`occrl.cli.demo`, ``export``: :mod:`occrl.cli.export`), the option types and the
+training options in :mod:`occrl.cli.options`. Nothing heavy is imported to build the parser: the
+training options (which import torch) are added only when ``occrl train`` is parsed or its help
+is printed.
 """
 
 from __future__ import annotations
@@ -14,28 +16,165 @@ import os
 import sys
 
 from occrl import __version__
-from occrl.cli.commands import run_bench, run_demo, run_eval, run_train
+from occrl.cli.commands import run_bench, run_eval, run_train
+from occrl.cli.demo import DEMO_FIRST_SEED, DEMO_STAGE, run_demo
 from occrl.cli.export import run_export
-from occrl.cli.options import COUNT, FINITE, NOISE, NON_NEGATIVE, POSITIVE, SCALE, SEED, add_train_settings
+from occrl.cli.options import (
+    COUNT,
+    FINITE,
+    NOISE,
+    NON_NEGATIVE,
+    POSITIVE,
+    SCALE,
+    SEED,
+    CommandParser,
+    HelpFormatter,
+    add_train_options,
+)
 
 __all__ = ["main", "make_parser"]
 
+DESCRIPTION = """\
+occrl: occlusion-aware search for object retrieval in clutter. A robot gripper looks for a target
+object hidden among others on a shelf and pulls it out; occrl's networks and planners decide how."""
+
+EPILOG = """\
+examples:
+  occrl demo                                   watch the planner on 3 cluttered shelves (writes a GIF)
+  occrl eval --method hybrid-4x4 --stage 2 --tasks 50
+                                               success rate, actions and time of a method
+  occrl train --preset tiny --run-dir /tmp/tiny --iterations 2
+                                               a seconds-long training run
+  occrl COMMAND --help                         a command's options and examples"""
+
+DEMO_EPILOG = f"""\
+By default the demo plays the first stage-{DEMO_STAGE} shelves from task seed {DEMO_FIRST_SEED} on whose target the camera
+does not see at the start (5 to 10 objects each): the planner has to search for it.
+
+examples:
+  occrl demo                              3 shelves with the hybrid planner 4x4 and the shipped network
+  occrl demo --tasks 1 --method hybrid-2x2
+                                          one shelf, a faster planner
+  occrl demo --world mujoco               the 3D MuJoCo shelf; frames add the gripper-camera image
+  occrl demo --method scripted            the privileged scripted retriever (it reads the true target pose)
+
+Written to --out: demo.gif (one frame per action; panels: true scene | network input with the
+heat-map and the planner's candidate target poses), demo_strip.png (a grid of frames of the first
+shelf) and demo_summary.json."""
+
+TRAIN_EPILOG = """\
+examples:
+  occrl train --preset tiny --run-dir /tmp/tiny --iterations 2     a smoke run (seconds)
+  occrl train --preset cpu --run-dir runs/cpu --max-hours 8        what trains on a CPU machine
+  occrl train --preset paper --device cuda --run-dir runs/paper    the paper's settings on a GPU
+  occrl train --preset cpu --lr 1e-4 --show-config                 print the settings a run would use
+  occrl train --preset cpu --help                                  this help with preset cpu's values
+
+Run the same command again to resume a stopped run from RUN_DIR's checkpoint."""
+
+EVAL_EPILOG = """\
+examples:
+  occrl eval --method hybrid-4x4 --stage 2 --tasks 50
+  occrl eval --method stochastic-gen --objects 1-10 --noise 0.1 --workers 2
+  occrl eval --method greedy --format markdown --out greedy.json
+  occrl eval --method hybrid-2x2 --world mujoco --tasks 20        execute in the 3D MuJoCo shelf
+  occrl eval --sweep --tasks 300 --out occrl-sweep --workers 8    the papers' clutter and noise sweeps (hours)
+
+Methods: hybrid-MxH (the hybrid planner, m roll-outs of depth h per root state; the papers' are
+2x2, 4x4 and 6x6), hybrid-lim-MxH (the most likely root only), greedy and stochastic (the network
+without heat-map: mean or sampled action), stochastic-gen (the full network, sampled),
+hierarchical (OMPL search), hybrid-ompl-MxH, and the privileged scripted and clearing (they read
+the true state)."""
+
+EXPORT_EPILOG = """\
+examples:
+  occrl export --run-dir runs/cpu --name occnet-takeover --preset cpu-curriculum
+  occrl export --run-dir runs/cpu --name occnet-takeover --preset cpu-curriculum --dest /tmp/try
+                                 write into /tmp/try instead of the package (to try it out)"""
+
+BENCH_EPILOG = """\
+examples:
+  occrl bench env_throughput
+  occrl bench planner_speedup --batch 1
+  occrl bench env_throughput --help          a benchmark's own options
+
+The benchmarks are the scripts in benchmarks/ of a source checkout."""
+
 
 def make_parser() -> argparse.ArgumentParser:
-    """The ``occrl`` command line: demo, train, eval, export, bench."""
-    parser = argparse.ArgumentParser(prog="occrl", description=__doc__.splitlines()[0])
-    parser.add_argument("-v", "--verbose", action="store_true")
-    parser.add_argument("--version", action="version", version=f"occrl {__version__}")
-    sub = parser.add_subparsers(dest="command", required=True)
+    """The ``occrl`` command line: demo, train, eval, export, bench.
 
-    d = sub.add_parser("demo", help="retrieve targets from random shelves; writes a summary and a GIF")
-    d.add_argument("--tasks", type=COUNT, default=3)
-    d.add_argument("--stage", type=int, default=1, choices=[1, 2, 3])
-    d.add_argument("--seed", type=SEED, default=2024)
-    d.add_argument("--out", default="occrl-demo")
-    d.add_argument("--fps", type=POSITIVE, default=4.0)
-    d.add_argument("--method", default="hybrid-4x4", choices=["hybrid-2x2", "hybrid-4x4", "hybrid-6x6", "scripted", "clearing"])
-    d.add_argument("--weights", default=None, help="network weights file or a shipped network's name instead of occnet")
+    The ``train`` parser gets its training options (one per :class:`~occrl.training.TrainConfig`
+    setting) when it parses or prints its help, so that building this parser imports no torch.
+    """
+    parser = argparse.ArgumentParser(prog="occrl", description=DESCRIPTION, epilog=EPILOG, formatter_class=HelpFormatter)
+    parser.add_argument("-v", "--verbose", action="store_true", help="log progress (INFO) and show tracebacks of errors")
+    parser.add_argument("--version", action="version", version=f"occrl {__version__}", help="print the version and exit")
+    sub = parser.add_subparsers(title="commands", dest="command", required=True, metavar="COMMAND", parser_class=CommandParser)
+    add_demo(sub)
+    train = sub.add_parser(
+        "train",
+        help="train the network (curriculum PPO with the heat-map loss, or imitation); resumes from --run-dir",
+        usage="occrl train [-h] [--preset NAME] (--run-dir DIR | --show-config) [OPTION ...]",
+        description="Train OccNet by a preset's recipe; any training setting can be overridden by its option.",
+        epilog=TRAIN_EPILOG,
+        formatter_class=HelpFormatter,
+        add_help=False,
+        options=add_train_options,
+    )
+    train.set_defaults(func=run_train)
+    add_eval(sub)
+    add_export(sub)
+    b = sub.add_parser(
+        "bench",
+        help="run a speed benchmark from benchmarks/",
+        description="Run a speed benchmark script from benchmarks/ with its own options.",
+        epilog=BENCH_EPILOG,
+        formatter_class=HelpFormatter,
+    )
+    b.add_argument("name", metavar="NAME", help="the benchmark's name: a script in benchmarks/ without .py, e.g. env_throughput")
+    b.add_argument("rest", metavar="OPTION", nargs=argparse.REMAINDER, help="the benchmark's own options")
+    b.set_defaults(func=run_bench)
+    return parser
+
+
+def add_demo(sub: argparse._SubParsersAction) -> None:
+    """``occrl demo``'s options."""
+    d = sub.add_parser(
+        "demo",
+        help="watch the planner retrieve hidden targets from cluttered shelves; writes a GIF",
+        description="Play a few shelves with a method and write a GIF of every action, a picture strip and a summary.",
+        epilog=DEMO_EPILOG,
+        formatter_class=HelpFormatter,
+    )
+    d.add_argument("--tasks", type=COUNT, default=3, help="shelves to play")
+    d.add_argument(
+        "--stage",
+        type=int,
+        default=DEMO_STAGE,
+        choices=[1, 2, 3],
+        help="curriculum stage: 1-4, 5-10 or 7-10 objects (3: target at the back)",
+    )
+    d.add_argument("--seed", type=SEED, default=DEMO_FIRST_SEED, help="first task seed to look at")
+    d.add_argument(
+        "--any-target",
+        action="store_true",
+        help="play the shelves of seeds SEED, SEED+1, ... as they come, also those whose target is in view from the start",
+    )
+    d.add_argument("--out", metavar="DIR", default="occrl-demo", help="folder for demo.gif, demo_strip.png and demo_summary.json")
+    d.add_argument("--fps", type=POSITIVE, default=4.0, help="GIF frames per second")
+    d.add_argument(
+        "--method",
+        default="hybrid-4x4",
+        choices=["hybrid-2x2", "hybrid-4x4", "hybrid-6x6", "scripted", "clearing"],
+        help="the hybrid planner MxH (m roll-outs of depth h per candidate target pose) with the network, or a privileged retriever",
+    )
+    d.add_argument(
+        "--weights",
+        metavar="FILE_OR_NAME",
+        default=None,
+        help="network weights file or a shipped network's name (default: the shipped occnet)",
+    )
     d.add_argument(
         "--world",
         choices=["pymunk", "mujoco"],
@@ -44,35 +183,20 @@ def make_parser() -> argparse.ArgumentParser:
     )
     d.set_defaults(func=run_demo)
 
-    t = sub.add_parser("train", help="train OccNet (curriculum PPO + heat-map loss); resumes from RUN_DIR")
-    t.add_argument(
-        "--preset", default="paper", help="training preset (occrl/training/presets.py): paper, cpu, cpu-finetune, cpu-curriculum, tiny"
-    )
-    t.add_argument("--run-dir", required=True, help="run folder (checkpoint, logs, curves); keep it outside the source tree")
-    t.add_argument("--seed", type=SEED, default=0)
-    t.add_argument("--iterations", type=COUNT, default=None, help="stop after this many iterations in total")
-    t.add_argument("--max-hours", type=POSITIVE, default=None, help="stop after this many hours of this session")
-    t.add_argument(
-        "--ray-address",
-        default=None,
-        help="with --collector ray: join this Ray cluster ('auto', 'host:6379', 'ray://host:10001'); default: start a local Ray runtime",
-    )
-    add_train_settings(t)
-    t.add_argument(
-        "--init-weights",
-        default=None,
-        help="start a new run from these weights: a weights file (e.g. a run's weights_warmstart.pt) "
-        "or a shipped name (occnet, occnet-noheatmap); used by the cpu-finetune preset",
-    )
-    t.add_argument("--checkpoint-every", type=POSITIVE, default=300.0, help="seconds between checkpoints")
-    t.add_argument("--no-progress", action="store_true")
-    t.set_defaults(func=run_train)
 
-    e = sub.add_parser("eval", help="run a method on fixed task seeds and report success, actions, time")
+def add_eval(sub: argparse._SubParsersAction) -> None:
+    """``occrl eval``'s options."""
+    e = sub.add_parser(
+        "eval",
+        help="run a method on fixed task seeds and report success, actions, time",
+        description="Evaluate a method on the tasks of fixed seeds (the same seeds give the same shelves and episodes).",
+        epilog=EVAL_EPILOG,
+        formatter_class=HelpFormatter,
+    )
     e.add_argument(
         "--method",
-        help="hybrid-2x2, hybrid-4x4, hybrid-6x6, hybrid-lim-4x4 (the papers'; any hybrid-MxH, hybrid-lim-MxH or hybrid-ompl-MxH runs), "
-        "greedy, stochastic, stochastic-gen, hierarchical, or the privileged scripted and clearing",
+        help="hybrid-2x2, hybrid-4x4, hybrid-6x6, hybrid-lim-4x4 (any hybrid-MxH, hybrid-lim-MxH or hybrid-ompl-MxH runs), "
+        "greedy, stochastic, stochastic-gen, hierarchical, or the privileged scripted and clearing (default: none; give it or --sweep)",
     )
     e.add_argument("--sweep", action="store_true", help="the papers' clutter and noise sweeps (resumable; --out is a folder)")
     e.add_argument(
@@ -83,11 +207,13 @@ def make_parser() -> argparse.ArgumentParser:
         type=COUNT,
         default=None,
         help="with --sweep: rounds of this many tasks (every point gets them before any gets more), so an "
-        "interrupted sweep leaves a complete figure; cached points are extended, never recomputed",
+        "interrupted sweep leaves a complete figure; cached points are extended, never recomputed (default: all tasks at once)",
     )
-    e.add_argument("--stage", type=int, default=None, choices=[1, 2, 3], help="the tasks' curriculum stage (default 1)")
+    e.add_argument("--stage", type=int, default=None, choices=[1, 2, 3], help="the tasks' curriculum stage (default: 1)")
     e.add_argument(
-        "--objects", default=None, help="object count per task: a number, or a range like 1-10 (each task draws its count from its seed)"
+        "--objects",
+        default=None,
+        help="object count per task: a number, or a range like 1-10 (each task draws its count from its seed) (default: the stage's)",
     )
     e.add_argument(
         "--world",
@@ -102,7 +228,7 @@ def make_parser() -> argparse.ArgumentParser:
         help="physics noise of the tasks; with --sweep: the clutter sweep alone, at this noise (use its own --out folder)",
     )
     e.add_argument("--tasks", type=COUNT, default=200, help="tasks per point (the paper uses 300 for sweeps)")
-    e.add_argument("--seed", type=SEED, default=10_000_000, help="first task seed (held-out range by default)")
+    e.add_argument("--seed", type=SEED, default=10_000_000, help="first task seed (default: %(default)s, the first of the held-out tasks)")
     e.add_argument("--batch", type=COUNT, default=16, help="worlds stepped together (policies; planners use 1)")
     e.add_argument("--workers", type=COUNT, default=1, help="processes (or Ray actors) to spread tasks over")
     e.add_argument(
@@ -111,24 +237,25 @@ def make_parser() -> argparse.ArgumentParser:
         default="local",
         help="local processes or Ray actors (results are the same for the same seeds)",
     )
-    e.add_argument("--ray-address", default=None, help="with --backend ray: join this Ray cluster (default: a local runtime)")
+    e.add_argument("--ray-address", default=None, help="with --backend ray: join this Ray cluster (default: start a local Ray runtime)")
     e.add_argument(
         "--weights",
         default=None,
-        help="network weights file, or a shipped network's name (occnet-warmstart, occnet-ei, ...), instead of the method's default (occnet / occnet-noheatmap)",
+        help="network weights file, or a shipped network's name (occnet-warmstart, occnet-ei, ...) "
+        "(default: the method's own, occnet or occnet-noheatmap)",
     )
     e.add_argument(
         "--rollout-min-scale",
         type=SCALE,
         default=0.0,
-        help="hybrid planners: floor on the roll-out policy's standard deviation (default 0: the policy's own, as in the paper)",
+        help="hybrid planners: floor on the roll-out policy's standard deviation (0: the policy's own, as in the paper)",
     )
     e.add_argument(
         "--proposal-bonus",
         type=FINITE,
         default=0.0,
         help="hybrid-ompl-MxH: added to the OMPL plan's roll-out return before it is compared with the policy's roll-outs, "
-        "a prior for the plan in return units (default 0: scored as they are; a large value lets the plan decide alone)",
+        "a prior for the plan in return units (0: scored as they are; a large value lets the plan decide alone)",
     )
     e.add_argument(
         "--inference",
@@ -142,46 +269,50 @@ def make_parser() -> argparse.ArgumentParser:
         type=NON_NEGATIVE,
         default=0,
         help="run replicate N of each task: the same shelves and execution noise, the decision maker's own randomness "
-        "(policy samples, planner roll-outs) drawn anew (default 0: what every recorded result ran); repeat with N = 1, 2, ... "
+        "(policy samples, planner roll-outs) drawn anew (0: what every recorded result ran); repeat with N = 1, 2, ... "
         "to see how much a result varies with that randomness alone (greedy and scripted have none: the same result)",
     )
-    e.add_argument("--out", default=None, help="write the results as JSON")
+    e.add_argument("--out", metavar="FILE", default=None, help="write the results as JSON to this file (default: print only)")
     e.add_argument(
         "--format",
         choices=["text", "markdown", "csv"],
         default="text",
         help="how to print the summary: a sentence, a Markdown table or CSV",
     )
-    e.add_argument("--no-progress", action="store_true")
+    e.add_argument("--no-progress", action="store_true", help="no progress bar")
     e.set_defaults(func=run_eval)
 
-    x = sub.add_parser("export", help="ship a training run's weights in the package (occrl.load_pretrained)")
-    x.add_argument("--run-dir", required=True)
+
+def add_export(sub: argparse._SubParsersAction) -> None:
+    """``occrl export``'s options."""
+    x = sub.add_parser(
+        "export",
+        help="ship a training run's weights in the package (occrl.load_pretrained)",
+        description="Copy a training run's weights into the package as a named shipped network, with its model card.",
+        epilog=EXPORT_EPILOG,
+        formatter_class=HelpFormatter,
+    )
+    x.add_argument("--run-dir", metavar="DIR", required=True, help="the training run's folder (occrl train --run-dir)")
     x.add_argument(
         "--name",
         required=True,
-        help="the shipped network's own name (occrl.pretrained.PRETRAINED_FILES, e.g. occnet-takeover); the default names occnet and occnet-noheatmap stand for one of them (DEFAULT_NETWORKS)",
+        help="the shipped network's own name (occrl.pretrained.PRETRAINED_FILES, e.g. occnet-takeover); "
+        "the default names occnet and occnet-noheatmap stand for one of them (DEFAULT_NETWORKS)",
     )
     x.add_argument("--preset", required=True, help="the training preset the run used")
-    x.add_argument("--seed", type=SEED, default=0)
+    x.add_argument("--seed", type=SEED, default=0, help="the training seed the run used")
     x.add_argument(
-        "--weights", default=None, help="weights file in the run folder (default weights.pt, the latest; e.g. weights_warmstart.pt)"
+        "--weights", default=None, help="weights file in the run folder (default: weights.pt, the latest; e.g. weights_warmstart.pt)"
     )
-    x.add_argument("--dest", default=None, help="write into this folder instead of the package's pretrained/ (for trying it out)")
+    x.add_argument("--dest", default=None, help="write into this folder instead of the package's pretrained/ (default: the package)")
     x.add_argument(
         "--recipe-before",
         default=None,
         help="JSON file listing the training steps that made the run's starting network (each: what, command, frames, cpu_hours); "
-        "recorded in the card as recipe_before, with recipe_frames / recipe_cpu_hours totalled over them and the run",
+        "recorded in the card as recipe_before, with recipe_frames / recipe_cpu_hours totalled over them and the run "
+        "(default: none: the card lists no earlier steps)",
     )
     x.set_defaults(func=run_export)
-
-    b = sub.add_parser("bench", help="run a speed benchmark from benchmarks/")
-    b.add_argument("name", help="e.g. env_throughput")
-    b.add_argument("rest", nargs=argparse.REMAINDER)
-    b.set_defaults(func=run_bench)
-
-    return parser
 
 
 def main(argv: list[str] | None = None) -> int:

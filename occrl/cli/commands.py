@@ -1,103 +1,23 @@
-"""What each ``occrl`` command does: demo, train, eval, bench (export: :mod:`occrl.cli.export`;
-the parser is in :mod:`occrl.cli`)."""
+"""What the ``occrl`` commands train, eval and bench do (demo: :mod:`occrl.cli.demo`, export:
+:mod:`occrl.cli.export`; the parser is in :mod:`occrl.cli`)."""
 
 from __future__ import annotations
 
 import argparse
 import json
 import sys
-import time
 from pathlib import Path
 from types import FrameType
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Sequence
 
 from occrl.atomic_files import write_text_atomic
 
 from occrl.cli.options import checked_weights_file, parse_objects
 
-__all__ = ["run_demo", "run_train", "run_eval", "run_bench", "network_of"]
+__all__ = ["run_train", "config_listing", "run_eval", "run_bench", "network_of"]
 
 if TYPE_CHECKING:
-    from occrl.training import Trainer
-
-
-def _gl_available() -> bool:
-    """MuJoCo camera images need an OpenGL backend (EGL headless); without one the demo still runs."""
-    from occrl.envs.mujoco3d.camera import gl_available
-
-    ok, why = gl_available()
-    if not ok:
-        print(f"no OpenGL backend for MuJoCo ({why}): the GIF shows no gripper-camera images (detection uses rays)")
-    return ok
-
-
-# what the demo says of the privileged methods it can show
-PRIVILEGED_LABELS = {
-    "scripted": "privileged scripted retriever (reads the true target pose)",
-    "clearing": "privileged clearing retriever (reads the true state, carries blockers aside)",
-}
-
-
-def run_demo(args: argparse.Namespace) -> int:
-    import numpy as np
-
-    from occrl.envs import Scene, make_env
-    from occrl.eval import episode_frames, save_film_strip, save_gif
-    from occrl.pretrained import available, model_card
-
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    method = args.method
-    if method not in PRIVILEGED_LABELS and not args.weights and "occnet" not in available():
-        print("no shipped network in this installation: showing the privileged scripted retriever instead")
-        method = "scripted"
-    primers, size, remembered = [], None, False
-    if method in PRIVILEGED_LABELS:
-        from occrl.eval.methods import make_method
-
-        policy, label = make_method(method).policy, PRIVILEGED_LABELS[method]
-    else:
-        from occrl.planners import HybridPlanner
-        from occrl.modules.weights import load_weights
-        from occrl.pretrained import load_pretrained
-
-        net = load_weights(checked_weights_file(args.weights)) if args.weights else load_pretrained("occnet")
-        m, h = (int(v) for v in method.split("-")[-1].split("x"))
-        policy = HybridPlanner(net, m=m, h=h, seed=args.seed)
-        primers, size, remembered = [net.make_primer()], net.config.image_size, net.config.remembered_detections
-        card = model_card(args.weights or "occnet") or {"file": args.weights}
-        label = f"hybrid planner {m}x{h} with network {card.get('summary', card)}"
-    rows, frames_all = [], []
-    print(f"occrl demo: {label}\n{args.tasks} random stage-{args.stage} shelves (task seeds {args.seed}..{args.seed + args.tasks - 1})")
-    print(f"{'task':>4} {'objects':>7} {'result':>10} {'actions':>7} {'seconds':>7}")
-    for k in range(args.tasks):
-        scene = Scene.sample(args.stage, seed=args.seed + k)
-        extra = {"world": "mujoco", "record_camera": _gl_available()} if args.world == "mujoco" else {}
-        if size is not None:  # the network's image size (the privileged methods read no image)
-            extra["size"] = size
-        env = make_env(batch_size=1, scenes=[scene], heatmap_target=False, remembered_detections=remembered, **extra)
-        for p in primers:
-            env.append_transform(p.clone())
-        if hasattr(policy, "reseed"):
-            policy.reseed(args.seed + k)
-            policy.decisions.clear()
-        t = time.time()
-        td = env.rollout(50, policy=policy)[0]
-        dt = time.time() - t
-        nxt = td.get("next")
-        result = "success" if bool(nxt["success"].any()) else ("dropped" if bool(nxt["dropped"].any()) else "failed")
-        rows.append(
-            {"task": k, "seed": args.seed + k, "objects": len(scene), "result": result, "actions": td.shape[0], "seconds": round(dt, 3)}
-        )
-        print(f"{k:>4} {len(scene):>7} {result:>10} {td.shape[0]:>7} {dt:>7.2f}")
-        frames_all.extend(episode_frames(td, decisions=getattr(policy, "decisions", None)))
-    success = float(np.mean([r["result"] == "success" for r in rows]))
-    summary = {"method": method, "description": label, "stage": args.stage, "world": args.world, "tasks": rows, "success_rate": success}
-    write_text_atomic(out / "demo_summary.json", json.dumps(summary, indent=2))
-    gif = save_gif(frames_all, out / "demo.gif", fps=args.fps)
-    strip = save_film_strip(frames_all[: max(1, len(frames_all) // args.tasks + 1)], out / "demo_strip.png")
-    print(f"success {success:.0%}; wrote {out / 'demo_summary.json'}, {gif}, {strip}")
-    return 0
+    from occrl.training import TrainConfig, Trainer
 
 
 def _stop_on_signals() -> list[str]:
@@ -133,6 +53,13 @@ def run_train(args: argparse.Namespace) -> int:
             print(f"--device: {err}", file=sys.stderr)
             return 2
     config = get_train_config(args.preset, **overrides)
+    if args.show_config:
+        config.validate()
+        print(config_listing(config, sorted(overrides)))
+        return 0
+    if args.run_dir is None:
+        print("occrl train: error: give --run-dir (the run's folder: checkpoint, logs, curves), or --show-config", file=sys.stderr)
+        return 2
     init_weights = args.init_weights
     if init_weights is not None and not Path(init_weights).exists():
         from occrl.pretrained import pretrained_path
@@ -165,6 +92,32 @@ def run_train(args: argparse.Namespace) -> int:
         trainer.close()
     print(_train_summary(args))
     return 0
+
+
+def config_listing(config: TrainConfig, given: Sequence[str] = ()) -> str:
+    """The settings of a training run, one per line (``occrl train --show-config``); the names in
+    ``given`` (set by options) are marked with the preset's own value.
+
+    Examples:
+        >>> from occrl.cli.commands import config_listing
+        >>> from occrl.training import get_train_config
+        >>> print(config_listing(get_train_config("tiny", lr=1e-3), ["lr"]).splitlines()[0])
+        training settings of preset tiny with --lr 0.001 (32 frames per iteration):
+    """
+    from occrl.training.presets import TRAIN_PRESETS
+
+    preset = TRAIN_PRESETS[config.preset]
+    settings = config.to_dict()
+    flags = []
+    for name in [name for name in settings if name in given]:  # in the settings' order
+        flag, value = "--" + name.replace("_", "-"), settings[name]
+        flags.append((flag if value else f"--no-{flag[2:]}") if isinstance(value, bool) else f"{flag} {value}")
+    options = f" with {' '.join(flags)}" if flags else ""
+    lines = [f"training settings of preset {config.preset}{options} ({config.frames_per_batch} frames per iteration):"]
+    for name, value in settings.items():
+        mark = f"   (option; preset {config.preset}: {getattr(preset, name)!r})" if name in given else ""
+        lines.append(f"  {name:<24} {value!r}{mark}")
+    return "\n".join(lines)
 
 
 def _raised_while_interrupted(err: BaseException) -> bool:

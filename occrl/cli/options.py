@@ -1,14 +1,30 @@
-"""The command line's option types (checked values with argparse's one-line errors) and the
-training options generated from :class:`~occrl.training.TrainConfig`."""
+"""The command line's option types (checked values with argparse's one-line errors), its help
+formatter, and the training options generated from :class:`~occrl.training.TrainConfig` (added only
+when ``occrl train`` is used: they import torch)."""
 
 from __future__ import annotations
 
 import argparse
 import math
 import re
+import sys
+from typing import TYPE_CHECKING, Callable, Sequence
+
+if TYPE_CHECKING:
+    from occrl.training.config import TrainConfig
 
 
-__all__ = ["bounded", "add_train_settings", "parse_objects", "checked_weights_file"]
+__all__ = [
+    "bounded",
+    "HelpFormatter",
+    "CommandParser",
+    "plain_text",
+    "given_preset",
+    "add_train_options",
+    "add_train_settings",
+    "parse_objects",
+    "checked_weights_file",
+]
 
 
 def bounded(kind, low=None, high=None, low_open=False, what=""):
@@ -67,33 +83,155 @@ SETTING_TYPES = {
 }
 
 
-def add_train_settings(parser: argparse.ArgumentParser) -> None:
-    """One option per :class:`~occrl.training.TrainConfig` setting (``--num-envs`` for
-    ``num_envs``; ``--heatmap/--no-heatmap`` for a flag), its help the setting's docstring; an
-    option given overrides the preset's value."""
+class HelpFormatter(argparse.RawDescriptionHelpFormatter):
+    """Help that shows each option's default (unless its help already says it) and prints the
+    description and the epilog's examples as written."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        if "(default" in text or not action.option_strings or action.required or action.default in (None, argparse.SUPPRESS):
+            return text
+        if action.default is False and action.nargs == 0:  # a flag
+            return f"{text} (default: off)"
+        return f"{text} (default: %(default)s)"
+
+
+class CommandParser(argparse.ArgumentParser):
+    """A command's parser whose options may be added only when it is used: ``options(parser,
+    argv)`` runs once, before the first parse or help, with the command's own arguments (so the
+    help can show the values of a ``--preset`` given there)."""
+
+    def __init__(self, *args, options: Callable[[argparse.ArgumentParser, Sequence[str]], None] | None = None, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self.pending_options = options
+
+    def add_pending_options(self, argv: Sequence[str] = ()) -> None:
+        if self.pending_options is not None:
+            options, self.pending_options = self.pending_options, None
+            options(self, list(argv))
+
+    def parse_known_args(self, args=None, namespace=None):
+        self.add_pending_options(sys.argv[1:] if args is None else args)
+        return super().parse_known_args(args, namespace)
+
+    def format_help(self) -> str:
+        self.add_pending_options()
+        return super().format_help()
+
+    def format_usage(self) -> str:
+        self.add_pending_options()
+        return super().format_usage()
+
+
+def plain_text(doc: str) -> str:
+    """A docstring's text for ``--help``: reST roles and literals as plain words, ``%`` escaped.
+
+    Examples:
+        >>> from occrl.cli.options import plain_text
+        >>> plain_text('Learning rate of a ``"fine"`` network (:func:`occrl.modules.with_finer_input`); 10 %')
+        'Learning rate of a "fine" network (occrl.modules.with_finer_input); 10 %%'
+    """
+    text = re.sub(r":\w+:`~?([^`]+)`", r"\1", doc).replace("``", "")
+    return text.replace("%", "%%")
+
+
+# the training settings a first run is most likely to change: shown with the common options
+COMMON_SETTINGS = ("device", "num_envs", "collector", "workers", "lr")
+
+
+def given_preset(argv: Sequence[str], default: str = "paper") -> str:
+    """The ``--preset`` among a command's arguments (the last one given), else ``default``."""
+    preset = default
+    for k, arg in enumerate(argv):
+        if arg == "--preset" and k + 1 < len(argv):
+            preset = argv[k + 1]
+        elif arg.startswith("--preset="):
+            preset = arg.split("=", 1)[1]
+    return preset
+
+
+def add_train_options(parser: argparse.ArgumentParser, argv: Sequence[str] = ()) -> None:
+    """``occrl train``'s options: the common ones first, then one per
+    :class:`~occrl.training.TrainConfig` setting (``--num-envs`` for ``num_envs``,
+    ``--heatmap/--no-heatmap`` for a flag) with its docstring as help and the value of the preset
+    named in ``argv`` (``paper`` by default) as default; an option given overrides the preset's value."""
+    from occrl.training.presets import TRAIN_PRESETS
+
+    preset = given_preset(argv)
+    shown = preset if preset in TRAIN_PRESETS else "paper"
+    common = parser.add_argument_group("common options")
+    common.add_argument("-h", "--help", action="help", help="show this help and exit (with --preset P: P's values as defaults)")
+    common.add_argument(
+        "--preset",
+        metavar="NAME",
+        default="paper",
+        help=f"training preset, the recipe the settings below start from: {', '.join(TRAIN_PRESETS)}",
+    )
+    common.add_argument(
+        "--run-dir",
+        metavar="DIR",
+        default=None,
+        help="run folder (checkpoint, logs, curves); keep it outside the source tree (required, except with --show-config)",
+    )
+    common.add_argument("--seed", type=SEED, default=0, help="training seed")
+    common.add_argument("--iterations", type=COUNT, default=None, help="stop after this many iterations in total (default: no limit)")
+    common.add_argument("--max-hours", type=POSITIVE, default=None, help="stop after this many hours of this session (default: no limit)")
+    common.add_argument(
+        "--show-config",
+        action="store_true",
+        help="print the settings this command would train with (the preset's, with the options given) and exit",
+    )
+    add_train_settings(common, TRAIN_PRESETS[shown], names=COMMON_SETTINGS)
+    common.add_argument("--no-progress", action="store_true", help="no progress bar")
+    run = parser.add_argument_group("starting and saving")
+    run.add_argument(
+        "--init-weights",
+        default=None,
+        help="start a new run from these weights: a weights file (e.g. a run's weights_warmstart.pt) "
+        "or a shipped name (occnet, occnet-noheatmap); used by the cpu-finetune preset (default: a new network)",
+    )
+    run.add_argument("--checkpoint-every", type=POSITIVE, default=300.0, help="seconds between checkpoints")
+    run.add_argument(
+        "--ray-address",
+        default=None,
+        help="with --collector ray: join this Ray cluster ('auto', 'host:6379', 'ray://host:10001') (default: start a local Ray runtime)",
+    )
+    settings = parser.add_argument_group(
+        f"training settings of preset {shown}",
+        f"Each defaults to the preset's value, shown here for preset {shown} (occrl train --preset NAME --help shows another's).",
+    )
+    add_train_settings(settings, TRAIN_PRESETS[shown], skip=("preset", *COMMON_SETTINGS))
+
+
+def add_train_settings(
+    group: argparse._ArgumentGroup, preset: TrainConfig, names: Sequence[str] | None = None, skip: Sequence[str] = ()
+) -> None:
+    """One option per :class:`~occrl.training.TrainConfig` setting (those in ``names``, in that
+    order, or all but ``skip``), its help the setting's docstring with ``preset``'s value as the
+    default; the parsed value is None where the option is not given."""
     from dataclasses import fields
 
     from occrl.modules import PRESETS
     from occrl.training.config import SETTING_CHOICES, TrainConfig
 
     docs = TrainConfig.field_docs()
-    group = parser.add_argument_group("training settings (default: the preset's; TrainConfig)")
-    for f in fields(TrainConfig):
-        if f.name == "preset":
-            continue
-        flag = "--" + f.name.replace("_", "-")
-        text = re.sub(r":\w+:`~?([^`]+)`", r"\1", docs[f.name]).replace("``", "").replace("%", "%%")  # no reST in --help
+    by_name = {f.name: f for f in fields(TrainConfig)}
+    for name in names if names is not None else [n for n in by_name if n not in skip]:
+        f, value = by_name[name], getattr(preset, name)
+        flag = "--" + name.replace("_", "-")
+        shown = ("on" if value else "off") if isinstance(value, bool) else (repr(value) if value == "" else value)
+        text = f"{plain_text(docs[name])} (default: {plain_text(str(shown))})"
         if f.type in (bool, "bool"):
-            group.add_argument(flag, dest=f.name, action=argparse.BooleanOptionalAction, default=None, help=text)
-        elif f.name == "start_stage":
-            group.add_argument(flag, dest=f.name, type=int, choices=[1, 2, 3], default=None, help=text)
+            group.add_argument(flag, dest=name, action=argparse.BooleanOptionalAction, default=None, help=text)
+        elif name == "start_stage":
+            group.add_argument(flag, dest=name, type=int, choices=[1, 2, 3], default=None, help=text)
         elif f.type in (int, "int"):
-            group.add_argument(flag, dest=f.name, type=SETTING_TYPES.get(f.name, NON_NEGATIVE), default=None, help=text)
+            group.add_argument(flag, dest=name, type=SETTING_TYPES.get(name, NON_NEGATIVE), default=None, help=text)
         elif f.type in (float, "float"):
-            group.add_argument(flag, dest=f.name, type=SETTING_TYPES.get(f.name, NON_NEGATIVE_NUMBER), default=None, help=text)
+            group.add_argument(flag, dest=name, type=SETTING_TYPES.get(name, NON_NEGATIVE_NUMBER), default=None, help=text)
         else:
-            choices = PRESETS if f.name == "net_preset" else SETTING_CHOICES.get(f.name)
-            group.add_argument(flag, dest=f.name, choices=choices, default=None, help=text)
+            choices = PRESETS if name == "net_preset" else SETTING_CHOICES.get(name)
+            group.add_argument(flag, dest=name, choices=choices, default=None, help=text)
 
 
 def parse_objects(text: str | None) -> int | tuple[int, int] | None:

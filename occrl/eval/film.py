@@ -22,6 +22,8 @@ __all__ = ["episode_frames", "frame", "decision_panels", "save_gif", "save_film_
 logger = logging.getLogger(__name__)
 
 PANEL = 256  # pixels per panel side
+CAPTION_HEIGHT = 18  # pixels above the panels for a frame's caption
+TITLE_HEIGHT = 14  # then for each panel's title
 
 
 def _panel_width(rgb: np.ndarray) -> Image.Image:
@@ -30,7 +32,7 @@ def _panel_width(rgb: np.ndarray) -> Image.Image:
 
 
 def _shelf_picture(gripper_pose, opening: float, polygons, is_target) -> Image.Image:
-    """The top-down shelf view of the given objects (target red) at panel width."""
+    """The top-down shelf view of the given objects (target green, the others red) at panel width."""
     labels = render_true_scene(np.asarray(gripper_pose, float), float(opening), polygons, is_target, SHELF_VIEW)
     return _panel_width(labels_to_rgb(labels))
 
@@ -88,9 +90,10 @@ def _obs_panel(step: TensorDictBase, heatmap: np.ndarray | None = None, decision
 
 
 def frame(step: TensorDictBase, caption: str = "", heatmap: np.ndarray | None = None, decision=None) -> np.ndarray:
-    """One picture of one step (a tensordict with no batch dims): true scene | observation, with
-    the heat-map's contours, the planner's root states (weights; orange = chosen) and action |
-    the gripper-camera image when the step has ``"camera_rgb"`` (MuJoCo, ``record_camera=True``).
+    """One picture of one step (a tensordict with no batch dims), a caption above its titled
+    panels: true scene | the network's input, with the heat-map's contours, the planner's root
+    states (weights; orange = chosen) and action | the gripper-camera image when the step has
+    ``"camera_rgb"`` (MuJoCo, ``record_camera=True``).
 
     Examples:
         >>> from occrl.baselines import ScriptedRetriever
@@ -99,20 +102,27 @@ def frame(step: TensorDictBase, caption: str = "", heatmap: np.ndarray | None = 
         >>> rollout = make_env(batch_size=1, seed=0, heatmap_target=False).rollout(1, ScriptedRetriever())
         >>> picture = frame(rollout[0, 0], "step 0")
         >>> picture.shape, picture.dtype
-        ((306, 518, 3), dtype('uint8'))
+        ((320, 518, 3), dtype('uint8'))
     """
     panels = [_true_panel(step), _obs_panel(step, heatmap, decision)]
+    titles = ["true scene (target green)", "network input" + (", heat-map (magenta)" if heatmap is not None else "")]
+    if decision is not None:
+        titles[1] += ", roots"
     if "camera_rgb" in step.keys():  # MujocoShelfEnv(record_camera=True): the real gripper-camera image
         cam = step.get("camera_rgb").permute(1, 2, 0).numpy()
         panels.append(np.asarray(_panel_width(cam)))
-    h = max(p.shape[0] for p in panels) + 18
+        titles.append("gripper camera (MuJoCo)")
+    top = CAPTION_HEIGHT + TITLE_HEIGHT
+    h = max(p.shape[0] for p in panels) + top
     out = np.full((h, sum(p.shape[1] for p in panels) + 6 * (len(panels) - 1), 3), 255, np.uint8)
-    x = 0
-    for p in panels:
-        out[18 : 18 + p.shape[0], x : x + p.shape[1]] = p
-        x += p.shape[1] + 6
     img = Image.fromarray(out)
-    ImageDraw.Draw(img).text((4, 3), caption, fill=(0, 0, 0))
+    draw = ImageDraw.Draw(img)
+    draw.text((4, 3), caption, fill=(0, 0, 0))
+    x = 0
+    for p, title in zip(panels, titles):
+        img.paste(Image.fromarray(p), (x, top))
+        draw.text((x + 4, CAPTION_HEIGHT), title, fill=(70, 70, 70))
+        x += p.shape[1] + 6
     return np.asarray(img)
 
 
@@ -132,7 +142,7 @@ def episode_frames(
         >>> rollout = make_env(batch_size=1, seed=0, heatmap_target=False).rollout(3, ScriptedRetriever())
         >>> frames = episode_frames(rollout[0])  # one episode: batch dims [T]
         >>> len(frames), frames[0].shape  # one per action and the final state
-        (4, (306, 518, 3))
+        (4, (320, 518, 3))
     """
     if rollout.batch_dims != 1:
         raise ValueError(f"expected one episode with batch dims [T], got batch size {tuple(rollout.batch_size)}")
@@ -155,7 +165,7 @@ def episode_frames(
 
 def decision_panels(decision) -> list[np.ndarray]:
     """One picture per root state of a planner decision (``HybridPlanner.decisions[t]``): the
-    recreated shelf with the hypothesised target (red), the m roll-outs' gripper paths (grey; the
+    recreated shelf with the hypothesised target (green), the m roll-outs' gripper paths (grey; the
     root's best in blue, the executed one in orange) and a caption with the root's weight and
     return. This is the planner's own view: objects it has not detected are not drawn.
 
@@ -232,10 +242,10 @@ def save_film_strip(frames: Sequence[np.ndarray], path: str | Path, columns: int
         >>> from occrl.envs import make_env
         >>> from occrl.eval.film import episode_frames, save_film_strip
         >>> rollout = make_env(batch_size=1, seed=0, heatmap_target=False).rollout(3, ScriptedRetriever())
-        >>> frames = episode_frames(rollout[0])  # 4 frames of 306 x 518 pixels
+        >>> frames = episode_frames(rollout[0])  # 4 frames of 320 x 518 pixels
         >>> path = save_film_strip(frames, os.path.join(tempfile.mkdtemp(), "strip.png"), columns=2)
         >>> Image.open(path).size  # (width, height) of a 2 x 2 grid with 4-pixel gaps
-        (1044, 620)
+        (1044, 648)
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
