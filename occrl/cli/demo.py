@@ -101,7 +101,8 @@ def run_demo(args: argparse.Namespace) -> int:
     world = "the 2D pymunk world" if args.world == "pymunk" else "the 3D MuJoCo shelf"
     which = "whose target starts hidden" if not args.any_target else "as they come"
     print(f"occrl demo: {label}, in {world}")
-    print(f"{args.tasks} stage-{args.stage} shelves {which} (task seeds {', '.join(map(str, seeds))})\n")
+    shelves, task_seeds = ("shelf", "task seed") if args.tasks == 1 else ("shelves", "task seeds")
+    print(f"{args.tasks} stage-{args.stage} {shelves} {which} ({task_seeds} {', '.join(map(str, seeds))})\n")
     print(f"{'task':>4}  {'seed':>6}  {'objects':>7}  {'result':<8}  {'actions':>7}  {'seconds':>7}")
     rows, frames_all, first_frames = [], [], 0
     for k, seed in enumerate(seeds):
