@@ -48,14 +48,15 @@ examples:
   occrl COMMAND --help                         a command's options and examples"""
 
 DEMO_EPILOG = f"""\
-By default the demo plays the first stage-{DEMO_STAGE} shelves from task seed {DEMO_FIRST_SEED} on whose target the camera
-does not see at the start (5 to 10 objects each): the planner has to search for it.
+Without --seed the demo plays the first stage-{DEMO_STAGE} shelves from task seed {DEMO_FIRST_SEED} on whose target
+the first observation does not show (5 to 10 objects each): the planner has to search for it.
 
 examples:
   occrl demo                              3 shelves with the hybrid planner 4x4 and the shipped network
   occrl demo --tasks 1 --method hybrid-2x2
                                           one shelf, a faster planner
   occrl demo --world mujoco               the 3D MuJoCo shelf; frames add the gripper-camera image
+  occrl demo --tasks 1 --seed 8           the shelf of task seed 8
   occrl demo --method scripted            the privileged scripted retriever (it reads the true target pose)
 
 Written to --out: demo.gif (one frame per action; panels: true scene | network input with the
@@ -155,11 +156,12 @@ def add_demo(sub: argparse._SubParsersAction) -> None:
         choices=[1, 2, 3],
         help="curriculum stage: 1-4, 5-10 or 7-10 objects (3: target at the back)",
     )
-    d.add_argument("--seed", type=SEED, default=DEMO_FIRST_SEED, help="first task seed to look at")
     d.add_argument(
-        "--any-target",
-        action="store_true",
-        help="play the shelves of seeds SEED, SEED+1, ... as they come, also those whose target is in view from the start",
+        "--seed",
+        type=SEED,
+        default=None,
+        help=f"play the shelves of task seeds SEED, SEED+1, ... (default: the first shelves from seed {DEMO_FIRST_SEED} on "
+        "whose target the first observation does not show)",
     )
     d.add_argument("--out", metavar="DIR", default="occrl-demo", help="folder for demo.gif, demo_strip.png and demo_summary.json")
     d.add_argument("--fps", type=POSITIVE, default=4.0, help="GIF frames per second")

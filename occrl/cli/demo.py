@@ -39,7 +39,7 @@ def demo_seeds(stage: int, count: int, first_seed: int, hidden_target: bool = Tr
     or the next ``count`` seeds as they come when ``hidden_target`` is False.
 
     Raises:
-        ValueError: when fewer than ``count`` of the next ``50 * count`` shelves start with the target hidden.
+        ValueError: when fewer than ``count`` of the next ``50 * count`` shelves start with their target hidden.
 
     Examples:
         >>> from occrl.cli.demo import demo_seeds
@@ -59,14 +59,12 @@ def demo_seeds(stage: int, count: int, first_seed: int, hidden_target: bool = Tr
         if len(seeds) >= count:
             return seeds[:count]
     raise ValueError(
-        f"only {len(seeds)} of the {50 * count} stage-{stage} shelves from seed {first_seed} on start with the target hidden; "
-        "play shelves as they come with --any-target"
+        f"only {len(seeds)} of the {50 * count} stage-{stage} shelves from seed {first_seed} on start with their target hidden; "
+        "give --seed to play shelves as they come"
     )
 
 
 def run_demo(args: argparse.Namespace) -> int:
-    import numpy as np
-
     from occrl.envs import Scene, make_env
     from occrl.eval import episode_frames, save_film_strip, save_gif
     from occrl.pretrained import available, network_name
@@ -89,7 +87,7 @@ def run_demo(args: argparse.Namespace) -> int:
         weights = checked_weights_file(args.weights) if args.weights else None
         net = load_weights(weights) if weights else load_pretrained("occnet")
         m, h = (int(v) for v in method.split("-")[-1].split("x"))
-        policy = HybridPlanner(net, m=m, h=h, seed=args.seed)
+        policy = HybridPlanner(net, m=m, h=h)  # reseeded per shelf
         primers, size, remembered = [net.make_primer()], net.config.image_size, net.config.remembered_detections
         name = args.weights or "occnet"
         if Path(name).exists():
@@ -97,9 +95,10 @@ def run_demo(args: argparse.Namespace) -> int:
         else:
             network = f"the shipped network {name}" + (f" ({network_name(name)})" if network_name(name) != name else "")
         label = f"the hybrid planner {m}x{h} with {network}"
-    seeds = demo_seeds(args.stage, args.tasks, args.seed, hidden_target=not args.any_target)
+    hidden = args.seed is None  # the default shelves: their target starts hidden
+    seeds = demo_seeds(args.stage, args.tasks, DEMO_FIRST_SEED if hidden else args.seed, hidden_target=hidden)
     world = "the 2D pymunk world" if args.world == "pymunk" else "the 3D MuJoCo shelf"
-    which = "whose target starts hidden" if not args.any_target else "as they come"
+    which = "whose target starts hidden" if hidden else "as given"
     print(f"occrl demo: {label}, in {world}")
     shelves, task_seeds = ("shelf", "task seed") if args.tasks == 1 else ("shelves", "task seeds")
     print(f"{args.tasks} stage-{args.stage} {shelves} {which} ({task_seeds} {', '.join(map(str, seeds))})\n")
@@ -131,14 +130,14 @@ def run_demo(args: argparse.Namespace) -> int:
         "description": label,
         "stage": args.stage,
         "world": args.world,
-        "target_hidden_at_start": not args.any_target,
+        "target_hidden_at_start": hidden,
         "tasks": rows,
-        "success_rate": float(np.mean([r["result"] == "success" for r in rows])),
+        "success_rate": successes / len(rows),
     }
     write_text_atomic(out / "demo_summary.json", json.dumps(summary, indent=2))
     gif = save_gif(frames_all, out / "demo.gif", fps=args.fps)
     strip = save_film_strip(frames_all[:first_frames], out / "demo_strip.png")
     print(f"\nretrieved {successes} of {len(rows)} targets")
-    print(f"GIF:     {gif} ({len(frames_all)} frames, one per action: the true scene beside what the network sees)")
+    print(f"GIF:     {gif} ({len(frames_all)} frames, one per action and the last state: the true scene beside what the network sees)")
     print(f"also:    {strip} (the first shelf), {out / 'demo_summary.json'}")
     return 0
