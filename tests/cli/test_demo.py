@@ -2,6 +2,7 @@
 
 import json
 
+import pytest
 from PIL import Image
 
 from occrl.cli import main, make_parser
@@ -9,6 +10,9 @@ from occrl.cli.demo import DEMO_FIRST_SEED, demo_seeds
 from occrl.envs import Scene, make_env
 from occrl.planners import recreate
 from occrl.pretrained import load_pretrained
+
+# whole episodes and env resets: 3-10 s each on a 2-core machine (demo_seeds' doctest is the fast check)
+pytestmark = pytest.mark.integration
 
 
 def first_observation_shows_the_target(stage: int, seed: int) -> bool:
