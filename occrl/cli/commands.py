@@ -39,6 +39,9 @@ def _stop_on_signals() -> list[str]:
 
 
 def run_train(args: argparse.Namespace) -> int:
+    if args.run_dir is None and not args.show_config:
+        print("occrl train: error: give --run-dir (the run's folder: checkpoint, logs, curves), or --show-config", file=sys.stderr)
+        return 2
     from occrl.training import TrainConfig, Trainer, get_train_config
 
     # the options generated from TrainConfig (add_train_settings); --preset picks the preset itself
@@ -57,9 +60,6 @@ def run_train(args: argparse.Namespace) -> int:
         config.validate()
         print(config_listing(config, sorted(overrides)))
         return 0
-    if args.run_dir is None:
-        print("occrl train: error: give --run-dir (the run's folder: checkpoint, logs, curves), or --show-config", file=sys.stderr)
-        return 2
     init_weights = args.init_weights
     if init_weights is not None and not Path(init_weights).exists():
         from occrl.pretrained import pretrained_path
