@@ -155,6 +155,7 @@ def add_train_options(parser: argparse.ArgumentParser, argv: Sequence[str] = ())
     :class:`~occrl.training.TrainConfig` setting (``--num-envs`` for ``num_envs``,
     ``--heatmap/--no-heatmap`` for a flag) with its docstring as help and the value of the preset
     named in ``argv`` (``paper`` by default) as default; an option given overrides the preset's value."""
+    from occrl.training.config import TrainConfig
     from occrl.training.presets import TRAIN_PRESETS
 
     preset = given_preset(argv)
@@ -181,7 +182,8 @@ def add_train_options(parser: argparse.ArgumentParser, argv: Sequence[str] = ())
         action="store_true",
         help="print the settings this command would train with (the preset's, with the options given) and exit",
     )
-    add_train_settings(common, TRAIN_PRESETS[shown], names=COMMON_SETTINGS)
+    docs = TrainConfig.field_docs()  # read once: it parses the class's source
+    add_train_settings(common, TRAIN_PRESETS[shown], names=COMMON_SETTINGS, docs=docs)
     common.add_argument("--no-progress", action="store_true", help="no progress bar")
     run = parser.add_argument_group("starting and saving")
     run.add_argument(
@@ -200,21 +202,26 @@ def add_train_options(parser: argparse.ArgumentParser, argv: Sequence[str] = ())
         f"training settings of preset {shown}",
         f"Each defaults to the preset's value, shown here for preset {shown} (occrl train --preset NAME --help shows another's).",
     )
-    add_train_settings(settings, TRAIN_PRESETS[shown], skip=("preset", *COMMON_SETTINGS))
+    add_train_settings(settings, TRAIN_PRESETS[shown], skip=("preset", *COMMON_SETTINGS), docs=docs)
 
 
 def add_train_settings(
-    group: argparse._ArgumentGroup, preset: TrainConfig, names: Sequence[str] | None = None, skip: Sequence[str] = ()
+    group: argparse._ArgumentGroup,
+    preset: TrainConfig,
+    names: Sequence[str] | None = None,
+    skip: Sequence[str] = (),
+    docs: dict[str, str] | None = None,
 ) -> None:
     """One option per :class:`~occrl.training.TrainConfig` setting (those in ``names``, in that
     order, or all but ``skip``), its help the setting's docstring with ``preset``'s value as the
-    default; the parsed value is None where the option is not given."""
+    default; the parsed value is None where the option is not given. ``docs``: the settings'
+    docstrings when already read (:meth:`~occrl.training.TrainConfig.field_docs`)."""
     from dataclasses import fields
 
     from occrl.modules import PRESETS
     from occrl.training.config import SETTING_CHOICES, TrainConfig
 
-    docs = TrainConfig.field_docs()
+    docs = docs if docs is not None else TrainConfig.field_docs()
     by_name = {f.name: f for f in fields(TrainConfig)}
     for name in names if names is not None else [n for n in by_name if n not in skip]:
         f, value = by_name[name], getattr(preset, name)
