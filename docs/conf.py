@@ -8,8 +8,10 @@ Build it (warnings are errors, as in ``.ci/run``)::
 The API reference (``docs/api/*.rst``) documents every module of the package with autodoc and
 napoleon (Google-style docstrings); :func:`check_api_coverage` fails the build when a name in a
 module's ``__all__`` or a module is missing from it. The example notebooks under
-``examples/notebooks`` are copied into ``docs/tutorials/`` (git-ignored) and rendered with myst-nb
-as they are stored, without being executed.
+``examples/notebooks`` are copied into ``docs/tutorials/`` (git-ignored) and executed by myst-nb at
+build time in their fast setting (``OCCRL_NOTEBOOK_FAST=1``: fewer tasks and iterations, the same
+steps), so every tutorial page shows its outputs and pictures; a cell that raises fails the build.
+``python scripts/check_tutorial_pictures.py HTML_DIR`` checks afterwards that each page has a picture.
 """
 
 from __future__ import annotations
@@ -28,6 +30,10 @@ DOCS = Path(__file__).resolve().parent
 ROOT = DOCS.parent
 sys.path.insert(0, str(ROOT))
 os.environ.setdefault("MUJOCO_GL", "egl")
+# the tutorials' kernels inherit this environment: the notebooks' fast setting, and this checkout's
+# occrl ahead of any other on the path
+os.environ.setdefault("OCCRL_NOTEBOOK_FAST", "1")
+os.environ["PYTHONPATH"] = os.pathsep.join([str(ROOT)] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p])
 
 import occrl  # noqa: E402
 from sphinx.util import logging  # noqa: E402
@@ -53,8 +59,15 @@ templates_path: list[str] = []
 # --- Markdown and notebooks -------------------------------------------------------------------
 myst_enable_extensions = ["colon_fence", "deflist"]
 myst_heading_anchors = 3  # decisions.md and experiments.md link to their sections by GitHub-style anchors
-nb_execution_mode = "off"  # the notebooks are rendered as stored; CI executes them in tests/examples
+# the tutorials are committed without outputs and executed here (an unchanged page is not re-read by
+# an incremental build, so not re-executed); a cell may take minutes on a loaded 2-core machine
+nb_execution_mode = "force"
+nb_execution_timeout = 600
+nb_execution_raise_on_error = True
+nb_execution_in_temp = True  # files a notebook writes (GIFs) go to a temporary folder
+nb_execution_show_tb = True
 nb_merge_streams = True
+nb_output_stderr = "remove"  # library log lines and progress-bar notices; an error still fails the build
 
 # --- API reference ----------------------------------------------------------------------------
 # undoc-members: every name in __all__ is listed, the constants without a doc comment too

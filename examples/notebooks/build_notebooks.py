@@ -2,8 +2,9 @@
 
     python examples/notebooks/build_notebooks.py
 
-Edit the cells here, rebuild, commit the .ipynb files. CI executes every notebook top to bottom
-with ``OCCRL_NOTEBOOK_FAST=1`` (tests/examples/test_notebooks.py), which shortens the slow cells.
+Edit the cells here, rebuild, commit the .ipynb files (without outputs). The docs build
+(docs/conf.py) and CI (tests/examples/test_notebooks.py) execute every notebook top to bottom with
+``OCCRL_NOTEBOOK_FAST=1``, which shortens the slow cells; each notebook must show a picture.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import torch
 
-FAST = os.environ.get("OCCRL_NOTEBOOK_FAST") == "1"  # CI sets this: shorter runs, same steps"""
+FAST = os.environ.get("OCCRL_NOTEBOOK_FAST") == "1"  # the docs build and CI set this: shorter runs, same steps"""
 
 TOUR = [
     new_markdown_cell("""# 1. A tour of the shelf environment
@@ -104,7 +105,7 @@ TRAIN = [
 scripted expert (the `cpu` preset), PPO + heat-map loss afterwards, the curriculum, checkpoints
 every few minutes and exact resume. Here: a few minutes of the `cpu` preset's warm start with
 fewer environments, then the learning curves and the learned policy on a few shelves. (A network
-worth shipping takes hours: see the README.)"""),
+worth shipping takes hours: see *Training* in the user guide.)"""),
     new_code_cell(SETUP),
     new_code_cell("""import tempfile
 
@@ -215,7 +216,7 @@ planner = HybridPlanner(net, m=4, h=4, seed=0)
 env = make_env(batch_size=1, stage=2, seed=11).append_transform(net.make_primer())
 rollout = env.rollout(6 if FAST else 50, planner)[0]
 end = rollout[-1]["next"]
-print(f"{rollout.shape[0]} actions, success {bool(end['success'])}")
+print(f"{rollout.shape[0]} actions{' (the fast setting stops at 6)' if FAST else ''}, success {bool(end['success'])}")
 frames = episode_frames(rollout, decisions=planner.decisions)
 save_gif(frames, "planner_episode.gif")
 fig, axes = plt.subplots(1, 3, figsize=(15, 3.5))
@@ -227,6 +228,8 @@ for a, k in zip(axes, [0, len(frames) // 2, len(frames) - 1]):
 def build() -> list[Path]:
     written = []
     for name, cells in (("01_env_tour", TOUR), ("02_train_small_net", TRAIN), ("03_hybrid_planner_step_by_step", PLANNER)):
+        for k, cell in enumerate(cells):
+            cell["id"] = f"{name[:2]}-{k:02d}"  # stable ids: a rebuild changes only what was edited
         nb = new_notebook(cells=cells, metadata={"kernelspec": {"name": "python3", "display_name": "Python 3", "language": "python"}})
         path = HERE / f"{name}.ipynb"
         nbformat.write(nb, path)
