@@ -19,6 +19,7 @@ def test_the_guide_has_its_pages():
     assert {"index", "scenes", "evaluation", "training", "real_robot", "gymnasium"} <= names
 
 
+@pytest.mark.integration  # whole episodes and a short training run: seconds each
 @pytest.mark.parametrize("page", [p for p in PAGES if python_blocks(p)], ids=lambda p: p.stem)
 def test_guide_page_snippets_run(page, tmp_path, monkeypatch):
     pytest.importorskip("gymnasium")
