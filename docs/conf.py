@@ -58,7 +58,7 @@ templates_path: list[str] = []
 
 # --- Markdown and notebooks -------------------------------------------------------------------
 myst_enable_extensions = ["colon_fence", "deflist"]
-myst_heading_anchors = 3  # decisions.md and experiments.md link to their sections by GitHub-style anchors
+myst_heading_anchors = 3  # the lab and design pages link to their sections by GitHub-style anchors
 # the tutorials are committed without outputs and executed here (an unchanged page is not re-read by
 # an incremental build, so not re-executed); a cell may take minutes on a loaded 2-core machine
 nb_execution_mode = "force"
