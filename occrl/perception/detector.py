@@ -1,0 +1,266 @@
+"""From a wrist-camera image to occrl's detections: decode the tags, estimate their poses, and
+turn each object's tags into its planar pose in the shelf frame.
+
+:meth:`TagDetector.detect` returns exactly what ``occrl.envs.perception.observation_from_detections``
+takes: one ``{"type_id": int, "pose": (x, y, theta), "vertices": [[x, y], ...]}`` per object seen,
+the pose in the shelf frame and the vertices the catalogue's footprint about it.
+
+How a pose is chosen (each tag's pose is ambiguous: a square seen small or face-on has two poses that
+project almost alike, OpenCV's IPPE returns both):
+
+1. each decoded tag of the catalogue gives one or two object poses: IPPE's best and, when it
+   reprojects within :data:`AMBIGUITY_PX` pixels of the best, the other one;
+2. an object seen through one tag takes the candidate whose up axis is closest to the shelf's
+   (objects stand on the shelf floor);
+3. an object seen through several tags takes one candidate per tag such that all agree pairwise
+   within ``agreement`` (2 cm and 10 degrees by default), the combination with the least total tilt
+   when several do, and reports their mean pose; when no combination agrees, the object is dropped
+   for that frame (not reported), counted in :attr:`TagDetector.disagreement_count` and warned once
+   per type.
+
+A decoded tag id that the catalogue does not list is skipped, counted in
+:attr:`TagDetector.unknown_tag_count` and warned once per id. At most ``max_detections`` objects
+(the observation's slots) are reported: the nearest to the camera.
+"""
+
+from __future__ import annotations
+
+import itertools
+import logging
+import math
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from occrl.perception.camera import CameraModel
+from occrl.perception.catalogue import TagCatalogue, TagEntry
+from occrl.perception.checks import positive_number, rigid_transform, strict_int
+from occrl.perception.frames import angle_difference, invert_transform, planar_pose, tilt_deg
+from occrl.perception.opencv import DEFAULT_DICTIONARY, aruco_dictionary, check_dictionary, require_opencv
+
+__all__ = ["TagDetector", "PoseCandidate", "REFINE_METHODS", "AMBIGUITY_PX", "DEFAULT_AGREEMENT", "MAX_DETECTIONS"]
+
+logger = logging.getLogger(__name__)
+
+REFINE_METHODS = ("none", "subpix", "contour", "apriltag")
+AMBIGUITY_PX = 1.0  # IPPE's second pose is kept when it reprojects within this of the best (RMS pixels)
+DEFAULT_AGREEMENT = (0.02, 10.0)  # metres, degrees
+MAX_DETECTIONS = 10  # the observation's object slots (occrl.envs.world_constants.MAX_OBJECTS)
+
+
+class PoseCandidate(NamedTuple):
+    """One pose a tag allows: the tag in the camera frame, the object in the shelf frame, and the
+    RMS reprojection error (pixels) of the tag's corners."""
+
+    camera_tag: np.ndarray
+    shelf_object: np.ndarray
+    reprojection_px: float
+
+
+class TagDetector:
+    """Decodes the catalogue's tags in a camera image and reports the objects they sit on.
+
+    Args:
+        camera: the calibrated wrist camera (its image size is the one :meth:`detect` accepts).
+        catalogue: the tags and their objects; its dictionary must be ``dictionary``.
+        dictionary: the tag family (:data:`occrl.perception.opencv.DICTIONARIES`).
+        refine: OpenCV's corner refinement: ``"subpix"`` (default), ``"contour"``, ``"apriltag"``
+            or ``"none"``.
+        agreement: (metres, degrees) within which an object's tags must agree (module docstring).
+        max_detections: at most this many objects are reported, the nearest to the camera.
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.perception import CameraModel, TagCatalogue, TagDetector
+        >>> camera = CameraModel.from_fov(640, 480, 70.0)
+        >>> box = [[-0.02, -0.02], [0.02, -0.02], [0.02, 0.02], [-0.02, 0.02]]
+        >>> catalogue = TagCatalogue.from_dict({"objects": [{"type_id": 3, "height": 0.12, "footprint": box,
+        ...     "tags": [{"tag_id": 0, "face": 0, "offset": [0.0, 0.06], "size": 0.03}]}]})
+        >>> detector = TagDetector(camera, catalogue)
+        >>> detector.detect(np.full((480, 640), 255, np.uint8), np.eye(4))  # nothing in view
+        []
+        >>> detector.detect(np.zeros((480, 640, 4), np.uint8), np.eye(4))
+        Traceback (most recent call last):
+        ...
+        ValueError: image must be (480, 640, 3) RGB or (480, 640) grey, uint8 (the camera's 640 x 480), got shape (480, 640, 4) and dtype uint8
+    """
+
+    def __init__(
+        self,
+        camera: CameraModel,
+        catalogue: TagCatalogue,
+        dictionary: str = DEFAULT_DICTIONARY,
+        refine: str = "subpix",
+        agreement: tuple[float, float] = DEFAULT_AGREEMENT,
+        max_detections: int = MAX_DETECTIONS,
+    ) -> None:
+        if not isinstance(camera, CameraModel):
+            raise TypeError(f"camera must be a CameraModel (occrl.perception.load_camera reads one), got {type(camera).__name__}")
+        if not isinstance(catalogue, TagCatalogue):
+            raise TypeError(f"catalogue must be a TagCatalogue (TagCatalogue.from_json reads one), got {type(catalogue).__name__}")
+        check_dictionary(dictionary)
+        if catalogue.dictionary != dictionary:
+            raise ValueError(f"the catalogue lists {catalogue.dictionary} tags but the detector decodes {dictionary}; use one dictionary")
+        if refine not in REFINE_METHODS:
+            raise ValueError(f"refine must be one of {list(REFINE_METHODS)}, got {refine!r}")
+        if not isinstance(agreement, (tuple, list)) or len(agreement) != 2:
+            raise ValueError(f"agreement must be (metres, degrees), got {agreement!r}")
+        self.agreement = (
+            positive_number("agreement distance", agreement[0], "m"),
+            positive_number("agreement angle", agreement[1], "degrees"),
+        )
+        self.max_detections = strict_int("max_detections", max_detections, 1, 10_000)
+        cv2 = require_opencv()
+        self._cv2 = cv2
+        self.camera = camera
+        self.catalogue = catalogue
+        self.dictionary = dictionary
+        self.refine = refine
+        params = cv2.aruco.DetectorParameters()
+        params.cornerRefinementMethod = {
+            "none": cv2.aruco.CORNER_REFINE_NONE,
+            "subpix": cv2.aruco.CORNER_REFINE_SUBPIX,
+            "contour": cv2.aruco.CORNER_REFINE_CONTOUR,
+            "apriltag": cv2.aruco.CORNER_REFINE_APRILTAG,
+        }[refine]
+        self._aruco = cv2.aruco.ArucoDetector(aruco_dictionary(dictionary), params)
+        self._camera_matrix = camera.intrinsic_matrix
+        self._distortion = camera.distortion_array
+        self.unknown_tag_count = 0
+        self.disagreement_count = 0
+        self.overflow_count = 0
+        self._warned_unknown: set[int] = set()
+        self._warned_disagreement: set[int] = set()
+
+    # -- images ------------------------------------------------------------------------------
+
+    def grey_image(self, image: Any) -> np.ndarray:
+        """``image`` checked against the camera and turned grey: (H, W, 3) uint8 RGB or (H, W)
+        uint8, H x W the camera's; ``ValueError`` (``TypeError`` for a non-array) otherwise."""
+        if not isinstance(image, np.ndarray):
+            raise TypeError(f"image must be a numpy array, (H, W, 3) uint8 RGB or (H, W) uint8, got {type(image).__name__}")
+        h, w = self.camera.height, self.camera.width
+        if image.dtype != np.uint8 or image.shape not in ((h, w, 3), (h, w)):
+            raise ValueError(
+                f"image must be ({h}, {w}, 3) RGB or ({h}, {w}) grey, uint8 (the camera's {w} x {h}), got shape {image.shape} and dtype {image.dtype}"
+            )
+        if image.ndim == 3:
+            return self._cv2.cvtColor(np.ascontiguousarray(image), self._cv2.COLOR_RGB2GRAY)
+        return np.ascontiguousarray(image)
+
+    def detect_tags(self, image: np.ndarray) -> list[dict[str, Any]]:
+        """The tags decoded in ``image`` (catalogued or not), for debugging: ``{"tag_id": int,
+        "corners": (4, 2) float array}`` each, corners in pixels in OpenCV's order (top-left,
+        top-right, bottom-right, bottom-left as the tag reads), sorted by tag id."""
+        corners, ids, _ = self._aruco.detectMarkers(self.grey_image(image))
+        if ids is None:
+            return []
+        tags = [{"tag_id": int(i), "corners": np.asarray(c, dtype=float).reshape(4, 2)} for i, c in zip(ids.reshape(-1), corners)]
+        return sorted(tags, key=lambda t: t["tag_id"])
+
+    # -- poses -------------------------------------------------------------------------------
+
+    def tag_pose_candidates(self, entry: TagEntry, corners: np.ndarray, shelf_camera: np.ndarray) -> list[PoseCandidate]:
+        """The poses a tag's ``corners`` allow (best first): IPPE's best, and its other solution
+        when that reprojects within :data:`AMBIGUITY_PX` of the best. ``shelf_camera``: the
+        camera's pose in the shelf frame."""
+        cv2 = self._cv2
+        found, rvecs, tvecs, errors = cv2.solvePnPGeneric(
+            entry.corners_in_tag,
+            np.asarray(corners, dtype=float).reshape(4, 1, 2),
+            self._camera_matrix,
+            self._distortion,
+            flags=cv2.SOLVEPNP_IPPE_SQUARE,
+        )
+        if not found:
+            return []
+        errors = np.asarray(errors, dtype=float).reshape(-1)
+        object_tag_inverse = invert_transform(entry.tag_in_object)
+        out = []
+        for rvec, tvec, err in zip(rvecs, tvecs, errors):
+            if out and err > out[0].reprojection_px + AMBIGUITY_PX:
+                continue
+            camera_tag = np.eye(4)
+            camera_tag[:3, :3] = cv2.Rodrigues(rvec)[0]
+            camera_tag[:3, 3] = np.asarray(tvec, dtype=float).reshape(3)
+            if camera_tag[2, 3] <= 0:  # behind the camera
+                continue
+            out.append(PoseCandidate(camera_tag, shelf_camera @ camera_tag @ object_tag_inverse, float(err)))
+        return out
+
+    def _agree(self, a: np.ndarray, b: np.ndarray) -> bool:
+        pa, pb = planar_pose(a), planar_pose(b)
+        distance = math.hypot(pa[0] - pb[0], pa[1] - pb[1])
+        return distance <= self.agreement[0] and abs(math.degrees(angle_difference(pa[2], pb[2]))) <= self.agreement[1]
+
+    def object_pose(self, type_id: int, candidates: list[list[PoseCandidate]]) -> tuple[float, float, float] | None:
+        """One object's planar pose from its tags' candidates (one list per tag), by the rule of
+        :mod:`occrl.perception.detector`; None when its tags disagree."""
+        candidates = [c for c in candidates if c]
+        if not candidates:
+            return None
+        if len(candidates) == 1:
+            best = min(candidates[0], key=lambda c: tilt_deg(c.shelf_object))
+            return planar_pose(best.shelf_object)
+        # beyond 8 tags, the rest add their best candidate only (at most 2^8 combinations)
+        options = candidates[:8] + [c[:1] for c in candidates[8:]]
+        chosen = None
+        for combo in itertools.product(*options):
+            if all(self._agree(a.shelf_object, b.shelf_object) for a, b in itertools.combinations(combo, 2)):
+                tilt = sum(tilt_deg(c.shelf_object) for c in combo)
+                if chosen is None or tilt < chosen[0]:
+                    chosen = (tilt, combo)
+        if chosen is None:
+            self.disagreement_count += 1
+            if type_id not in self._warned_disagreement:
+                self._warned_disagreement.add(type_id)
+                logger.warning(
+                    "the tags of type %d disagree by more than %.3g m / %.3g deg; the object is dropped for that frame "
+                    "(counted in disagreement_count; check the catalogue's tag placement; warned once per type)",
+                    type_id,
+                    *self.agreement,
+                )
+            return None
+        poses = np.array([planar_pose(c.shelf_object) for c in chosen[1]])
+        theta = math.atan2(np.sin(poses[:, 2]).mean(), np.cos(poses[:, 2]).mean())
+        return float(poses[:, 0].mean()), float(poses[:, 1].mean()), theta
+
+    def detect(self, image: np.ndarray, gripper_pose: np.ndarray) -> list[dict[str, Any]]:
+        """The objects whose tags are decoded in ``image``, as
+        ``occrl.envs.perception.observation_from_detections`` takes them (sorted by type id).
+
+        Args:
+            image: (H, W, 3) uint8 RGB or (H, W) uint8 grey, the camera's size.
+            gripper_pose: the gripper's 4x4 pose in the shelf frame (maps gripper-frame points to
+                shelf-frame points; :func:`occrl.perception.frames.gripper_pose_matrix` makes it
+                from a planar pose and a height).
+        """
+        grey = self.grey_image(image)
+        shelf_gripper = rigid_transform("gripper_pose", gripper_pose)
+        shelf_camera = shelf_gripper @ self.camera.hand_camera
+        tags = self.detect_tags(grey)
+        by_type: dict[int, list[list[PoseCandidate]]] = {}
+        for tag in tags:
+            entry = self.catalogue.get(tag["tag_id"])
+            if entry is None:
+                self._unknown(tag["tag_id"])
+                continue
+            by_type.setdefault(entry.type_id, []).append(self.tag_pose_candidates(entry, tag["corners"], shelf_camera))
+        objects = []
+        for type_id in sorted(by_type):
+            pose = self.object_pose(type_id, by_type[type_id])
+            if pose is not None:
+                footprint = self.catalogue.tags_of(type_id)[0].footprint
+                objects.append({"type_id": type_id, "pose": pose, "vertices": [list(v) for v in footprint]})
+        if len(objects) > self.max_detections:
+            self.overflow_count += len(objects) - self.max_detections
+            cam = shelf_camera[:2, 3]
+            nearest = sorted(objects, key=lambda o: math.hypot(o["pose"][0] - cam[0], o["pose"][1] - cam[1]))[: self.max_detections]
+            objects = sorted(nearest, key=lambda o: o["type_id"])
+        return objects
+
+    def _unknown(self, tag_id: int) -> None:
+        self.unknown_tag_count += 1
+        if tag_id not in self._warned_unknown:
+            self._warned_unknown.add(tag_id)
+            logger.warning("tag %d is not in the catalogue: skipped (counted in unknown_tag_count; warned once per id)", tag_id)
