@@ -1,0 +1,200 @@
+"""The tag detector on synthetic images (real OpenCV): poses, the format the planners take, the
+rule for tags that disagree, unknown tags and bad input."""
+
+import logging
+import math
+
+import numpy as np
+import pytest
+
+from occrl.perception import TagDetector, gripper_pose_matrix
+from occrl.perception.detector import PoseCandidate
+from occrl.perception.synthetic import render_objects
+
+from tests.perception.scenes import HAND_Z, box, camera, catalogue
+
+pytest.importorskip("cv2")
+
+
+def gripper(x=0.0, y=-0.15, theta=0.0):
+    return gripper_pose_matrix(x, y, theta, z=HAND_Z)
+
+
+def image_of(objects, grip, cat=None, seed=0, noise=2.0):
+    return render_objects(camera(), cat or catalogue(), objects, grip, noise_std=noise, rng=np.random.default_rng(seed))
+
+
+def pose_error(found, truth):
+    return math.hypot(found[0] - truth[0], found[1] - truth[1]), abs(
+        math.degrees((found[2] - truth[2] + math.pi) % (2 * math.pi) - math.pi)
+    )
+
+
+@pytest.mark.parametrize(
+    "grip, truth",
+    [
+        ((0.0, -0.15, 0.0), (0.0, 0.1, 0.0)),  # face-on, 25 cm
+        ((0.0, -0.15, 0.0), (0.06, 0.12, 0.4)),  # off-axis, turned
+        ((0.1, -0.05, 0.3), (0.02, 0.15, 0.5)),  # a turned gripper
+        ((-0.05, 0.0, -0.2), (-0.03, 0.13, -0.3)),  # near
+    ],
+)
+def test_single_tag_pose_is_accurate(grip, truth):
+    g = gripper(*grip)
+    detector = TagDetector(camera(), catalogue())
+    (found,) = detector.detect(image_of([(5, truth)], g), g)
+    assert found["type_id"] == 5 and found["vertices"] == box(0.02)
+    distance, angle = pose_error(found["pose"], truth)
+    assert distance < 0.003 and angle < 1.5, (distance, angle)
+
+
+def test_two_agreeing_tags_give_one_pose():
+    g = gripper()
+    truth = (0.01, 0.1, math.radians(45))  # faces 0 and 3 both seen at 45 degrees
+    detector = TagDetector(camera(), catalogue())
+    assert [t["tag_id"] for t in detector.detect_tags(image_of([(3, truth)], g))] == [0, 3]
+    (found,) = detector.detect(image_of([(3, truth)], g), g)
+    distance, angle = pose_error(found["pose"], truth)
+    assert distance < 0.003 and angle < 1.5, (distance, angle)
+    assert detector.disagreement_count == 0
+
+
+def test_the_output_is_what_observation_from_detections_takes():
+    from occrl.envs.perception import detected_polygons, observation_from_detections
+
+    g = gripper()
+    objects = [(3, (-0.06, 0.12, 0.3)), (5, (0.05, 0.1, -0.2))]
+    detections = TagDetector(camera(), catalogue()).detect(image_of(objects, g), g)
+    assert [d["type_id"] for d in detections] == [3, 5]
+    assert all(set(d) == {"type_id", "pose", "vertices"} for d in detections)
+    obs = observation_from_detections((0.0, -0.15, 0.0), 0.085, detections, target_type=5, target_vertices=np.array(box(0.02)))
+    ((polygons, is_target),) = detected_polygons(obs)
+    assert is_target == [False, True]
+    np.testing.assert_allclose(polygons[1].mean(axis=0), [0.05, 0.1], atol=0.003)
+
+
+def test_disagreeing_tags_drop_the_object_counted_and_warned_once(caplog):
+    g = gripper()
+    truth = (0.01, 0.1, math.radians(45))
+    image = image_of([(3, truth), (5, (-0.07, 0.12, 0.0))], g)
+    wrong = catalogue()
+    data = wrong.to_dict()
+    data["objects"][0]["tags"][3]["offset"] = [0.0, 0.05]  # tag 3 claimed 2 cm lower than it is printed
+    data["objects"][0]["tags"][3]["face"] = 1  # and on the opposite face
+    detector = TagDetector(camera(), type(wrong).from_dict(data))
+    with caplog.at_level(logging.WARNING, logger="occrl.perception.detector"):
+        first = detector.detect(image, g)
+        second = detector.detect(image, g)
+    assert [d["type_id"] for d in first] == [5] and first == second  # type 3 dropped, type 5 kept
+    assert detector.disagreement_count == 2
+    warnings = [r.getMessage() for r in caplog.records]
+    assert len(warnings) == 1 and "the tags of type 3 disagree by more than 0.02 m / 10 deg" in warnings[0]
+
+
+def test_agreement_picks_the_combination_that_agrees():
+    detector = TagDetector(camera(), catalogue())
+
+    def candidate(x, y, theta, tilt_deg=0.0):
+        pose = gripper_pose_matrix(x, y, theta)
+        t = math.radians(tilt_deg)
+        pose[:3, :3] = pose[:3, :3] @ np.array([[1, 0, 0], [0, math.cos(t), -math.sin(t)], [0, math.sin(t), math.cos(t)]])
+        return PoseCandidate(np.eye(4), pose, 0.1)
+
+    # one tag: the upright candidate wins over the better-reprojecting tilted one
+    assert detector.object_pose(3, [[candidate(0.0, 0.1, 0.5, tilt_deg=20), candidate(0.01, 0.1, 0.2)]]) == pytest.approx((0.01, 0.1, 0.2))
+    # two tags: only the second candidate of tag A agrees with tag B (1 cm, 4 degrees apart): their mean
+    a = [candidate(0.05, 0.1, 0.8), candidate(0.0, 0.1, 0.2, tilt_deg=5)]
+    b = [candidate(0.01, 0.1, 0.2 + math.radians(4))]
+    x, y, theta = detector.object_pose(3, [a, b])
+    assert (x, y) == pytest.approx((0.005, 0.1)) and theta == pytest.approx(0.2 + math.radians(2))
+    # no combination within 2 cm: dropped and counted
+    assert detector.object_pose(3, [a, [candidate(0.03, 0.13, 0.2)]]) is None
+    assert detector.disagreement_count == 1
+
+
+def test_unknown_tag_is_skipped_counted_and_warned_once(caplog):
+    g = gripper()
+    image = image_of([(3, (-0.06, 0.12, 0.0)), (5, (0.05, 0.1, 0.0))], g)
+    known = catalogue(
+        [{"type_id": 3, "height": 0.12, "footprint": box(0.025), "tags": [{"tag_id": 0, "face": 0, "offset": [0.0, 0.07], "size": 0.03}]}]
+    )
+    detector = TagDetector(camera(), known)
+    with caplog.at_level(logging.WARNING, logger="occrl.perception.detector"):
+        for _ in range(3):
+            assert [d["type_id"] for d in detector.detect(image, g)] == [3]
+    assert detector.unknown_tag_count == 3
+    assert [r.getMessage() for r in caplog.records] == [
+        "tag 10 is not in the catalogue: skipped (counted in unknown_tag_count; warned once per id)"
+    ]
+
+
+def test_at_most_max_detections_the_nearest():
+    g = gripper()
+    image = image_of([(3, (-0.06, 0.2, 0.0)), (5, (0.05, 0.08, 0.0))], g)
+    detector = TagDetector(camera(), catalogue(), max_detections=1)
+    assert [d["type_id"] for d in detector.detect(image, g)] == [5]
+    assert detector.overflow_count == 1
+
+
+@pytest.mark.parametrize("refine", ["none", "subpix", "contour", "apriltag"])
+def test_every_refinement_decodes(refine):
+    g = gripper()
+    (found,) = TagDetector(camera(), catalogue(), refine=refine).detect(image_of([(5, (0.0, 0.1, 0.0))], g), g)
+    distance, angle = pose_error(found["pose"], (0.0, 0.1, 0.0))
+    assert distance < 0.01 and angle < 5
+
+
+def test_nothing_in_view():
+    detector = TagDetector(camera(), catalogue())
+    assert detector.detect(np.full((480, 640, 3), 200, np.uint8), gripper()) == []
+    assert detector.detect_tags(np.full((480, 640), 200, np.uint8)) == []
+
+
+@pytest.mark.parametrize(
+    "image, error, message",
+    [
+        (
+            np.zeros((480, 640, 3), np.float32),
+            ValueError,
+            r"image must be \(480, 640, 3\) RGB or \(480, 640\) grey, uint8 .* dtype float32",
+        ),
+        (np.zeros((640, 480, 3), np.uint8), ValueError, r"the camera's 640 x 480\), got shape \(640, 480, 3\)"),
+        (np.zeros((480, 640, 4), np.uint8), ValueError, r"got shape \(480, 640, 4\)"),
+        (np.zeros((3, 480, 640), np.uint8), ValueError, r"got shape \(3, 480, 640\)"),
+        ([[0, 0], [0, 0]], TypeError, "image must be a numpy array"),
+    ],
+)
+def test_bad_image_is_named_and_leaves_the_counts(image, error, message):
+    detector = TagDetector(camera(), catalogue())
+    with pytest.raises(error, match=message):
+        detector.detect(image, gripper())
+    with pytest.raises(error, match=message):
+        detector.detect_tags(image)
+    assert (detector.unknown_tag_count, detector.disagreement_count) == (0, 0)
+
+
+@pytest.mark.parametrize(
+    "grip, message",
+    [
+        (np.eye(3), r"gripper_pose must be a 4x4 homogeneous transform"),
+        (np.diag([1.0, 1.0, 2.0, 1.0]), "not orthonormal"),
+        (np.full((4, 4), np.nan), "gripper_pose must be finite"),
+        ((0.0, -0.1, 0.0), r"gripper_pose must be a 4x4"),
+    ],
+)
+def test_bad_gripper_pose_is_named(grip, message):
+    with pytest.raises(ValueError, match=message):
+        TagDetector(camera(), catalogue()).detect(np.zeros((480, 640), np.uint8), grip)
+
+
+def test_inconsistent_setup_is_named():
+    with pytest.raises(ValueError, match="the catalogue lists apriltag_36h11 tags but the detector decodes apriltag_25h9"):
+        TagDetector(camera(), catalogue(), dictionary="apriltag_25h9")
+    with pytest.raises(ValueError, match=r"refine must be one of \['none', 'subpix', 'contour', 'apriltag'\], got 'fast'"):
+        TagDetector(camera(), catalogue(), refine="fast")
+    with pytest.raises(TypeError, match="camera must be a CameraModel"):
+        TagDetector({"fx": 1.0}, catalogue())
+    with pytest.raises(TypeError, match="catalogue must be a TagCatalogue"):
+        TagDetector(camera(), {"objects": []})
+    with pytest.raises(ValueError, match="agreement distance must be a finite number above 0"):
+        TagDetector(camera(), catalogue(), agreement=(0.0, 10.0))
