@@ -31,6 +31,7 @@ from occrl.cli.options import (
     HelpFormatter,
     add_train_options,
 )
+from occrl.cli.tags import add_tags_parser
 
 __all__ = ["main", "make_parser"]
 
@@ -103,7 +104,7 @@ The benchmarks are the scripts in benchmarks/ of a source checkout."""
 
 
 def make_parser() -> argparse.ArgumentParser:
-    """The ``occrl`` command line: demo, train, eval, export, bench.
+    """The ``occrl`` command line: demo, train, eval, export, bench, tags.
 
     The ``train`` parser gets its training options (one per :class:`~occrl.training.TrainConfig`
     setting) when it parses or prints its help, so that building this parser imports no torch.
@@ -136,6 +137,7 @@ def make_parser() -> argparse.ArgumentParser:
     b.add_argument("name", metavar="NAME", help="the benchmark's name: a script in benchmarks/ without .py, e.g. env_throughput")
     b.add_argument("rest", metavar="OPTION", nargs=argparse.REMAINDER, help="the benchmark's own options")
     b.set_defaults(func=run_bench)
+    add_tags_parser(sub)
     return parser
 
 
