@@ -34,6 +34,7 @@ import numpy as np
 
 from occrl.perception.camera import CameraModel
 from occrl.perception.catalogue import TagCatalogue, TagEntry
+from occrl.perception.edges import refine_corners_on_edges
 from occrl.perception.checks import positive_number, rigid_transform, strict_int
 from occrl.perception.frames import angle_difference, invert_transform, planar_pose, tilt_deg
 from occrl.perception.opencv import DEFAULT_DICTIONARY, aruco_dictionary, check_dictionary, require_opencv
@@ -42,7 +43,7 @@ __all__ = ["TagDetector", "PoseCandidate", "REFINE_METHODS", "AMBIGUITY_PX", "DE
 
 logger = logging.getLogger(__name__)
 
-REFINE_METHODS = ("none", "subpix", "contour", "apriltag")
+REFINE_METHODS = ("none", "subpix", "contour", "apriltag", "edges")
 AMBIGUITY_PX = 1.0  # IPPE's second pose is kept when it reprojects within this of the best (RMS pixels)
 DEFAULT_AGREEMENT = (0.02, 10.0)  # metres, degrees
 MAX_DETECTIONS = 10  # the observation's object slots (occrl.envs.world_constants.MAX_OBJECTS)
@@ -64,8 +65,10 @@ class TagDetector:
         camera: the calibrated wrist camera (its image size is the one :meth:`detect` accepts).
         catalogue: the tags and their objects; its dictionary must be ``dictionary``.
         dictionary: the tag family (:data:`occrl.perception.opencv.DICTIONARIES`).
-        refine: OpenCV's corner refinement: ``"subpix"`` (default), ``"contour"``, ``"apriltag"``
-            or ``"none"``.
+        refine: the corner refinement: OpenCV's ``"subpix"`` (default), ``"contour"``,
+            ``"apriltag"`` or ``"none"``, or ``"edges"``: ``"subpix"`` then lines fitted to the
+            square's sides (:mod:`occrl.perception.edges`; no inward bias, so more accurate on small
+            tags).
         agreement: (metres, degrees) within which an object's tags must agree (module docstring).
         max_detections: at most this many objects are reported, the nearest to the camera.
 
@@ -122,7 +125,9 @@ class TagDetector:
             "subpix": cv2.aruco.CORNER_REFINE_SUBPIX,
             "contour": cv2.aruco.CORNER_REFINE_CONTOUR,
             "apriltag": cv2.aruco.CORNER_REFINE_APRILTAG,
+            "edges": cv2.aruco.CORNER_REFINE_SUBPIX,
         }[refine]
+        self._cells = check_dictionary(dictionary).bits + 2
         self._aruco = cv2.aruco.ArucoDetector(aruco_dictionary(dictionary), params)
         self._camera_matrix = camera.intrinsic_matrix
         self._distortion = camera.distortion_array
@@ -152,10 +157,14 @@ class TagDetector:
         """The tags decoded in ``image`` (catalogued or not), for debugging: ``{"tag_id": int,
         "corners": (4, 2) float array}`` each, corners in pixels in OpenCV's order (top-left,
         top-right, bottom-right, bottom-left as the tag reads), sorted by tag id."""
-        corners, ids, _ = self._aruco.detectMarkers(self.grey_image(image))
+        grey = self.grey_image(image)
+        corners, ids, _ = self._aruco.detectMarkers(grey)
         if ids is None:
             return []
         tags = [{"tag_id": int(i), "corners": np.asarray(c, dtype=float).reshape(4, 2)} for i, c in zip(ids.reshape(-1), corners)]
+        if self.refine == "edges":
+            for tag in tags:
+                tag["corners"] = refine_corners_on_edges(grey, tag["corners"], self._cells)
         return sorted(tags, key=lambda t: t["tag_id"])
 
     # -- poses -------------------------------------------------------------------------------
