@@ -47,6 +47,11 @@ REFINE_METHODS = ("none", "subpix", "contour", "apriltag", "edges")
 AMBIGUITY_PX = 1.0  # IPPE's second pose is kept when it reprojects within this of the best (RMS pixels)
 DEFAULT_AGREEMENT = (0.02, 10.0)  # metres, degrees
 MAX_DETECTIONS = 10  # the observation's object slots (occrl.envs.world_constants.MAX_OBJECTS)
+# OpenCV drops the smaller of two candidate squares closer than this (relative to the perimeter);
+# its default, 0.125, drops the tag for the outline of its white margin in about 1 frame in 20
+# (synthetic frames, benchmarks/tag_detection.py); below 0.02 both copies of a tag are decoded
+MIN_MARKER_DISTANCE_RATE = 0.02
+DUPLICATE_PX = 3.0  # the same id decoded twice with corners this close: one tag
 
 
 class PoseCandidate(NamedTuple):
@@ -127,6 +132,7 @@ class TagDetector:
             "apriltag": cv2.aruco.CORNER_REFINE_APRILTAG,
             "edges": cv2.aruco.CORNER_REFINE_SUBPIX,
         }[refine]
+        params.minMarkerDistanceRate = MIN_MARKER_DISTANCE_RATE
         self._cells = check_dictionary(dictionary).bits + 2
         self._aruco = cv2.aruco.ArucoDetector(aruco_dictionary(dictionary), params)
         self._camera_matrix = camera.intrinsic_matrix
@@ -161,7 +167,11 @@ class TagDetector:
         corners, ids, _ = self._aruco.detectMarkers(grey)
         if ids is None:
             return []
-        tags = [{"tag_id": int(i), "corners": np.asarray(c, dtype=float).reshape(4, 2)} for i, c in zip(ids.reshape(-1), corners)]
+        tags = []
+        for i, c in zip(ids.reshape(-1), corners):
+            c = np.asarray(c, dtype=float).reshape(4, 2)
+            if not any(t["tag_id"] == i and np.abs(t["corners"] - c).max() <= DUPLICATE_PX for t in tags):
+                tags.append({"tag_id": int(i), "corners": c})
         if self.refine == "edges":
             for tag in tags:
                 tag["corners"] = refine_corners_on_edges(grey, tag["corners"], self._cells)
