@@ -226,7 +226,7 @@ def test_bad_gripper_pose_is_named(grip, message):
 def test_inconsistent_setup_is_named():
     with pytest.raises(ValueError, match="the catalogue lists apriltag_36h11 tags but the detector decodes apriltag_25h9"):
         TagDetector(camera(), catalogue(), dictionary="apriltag_25h9")
-    with pytest.raises(ValueError, match=r"refine must be one of \['none', 'subpix', 'contour', 'apriltag'\], got 'fast'"):
+    with pytest.raises(ValueError, match=r"refine must be one of \['none', 'subpix', 'contour', 'apriltag', 'edges'\], got 'fast'"):
         TagDetector(camera(), catalogue(), refine="fast")
     with pytest.raises(TypeError, match="camera must be a CameraModel"):
         TagDetector({"fx": 1.0}, catalogue())
