@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from occrl.perception.opencv import require_opencv
+
 __all__ = ["refine_corners_on_edges", "MAX_SHIFT_PX"]
 
 MAX_SHIFT_PX = 2.0  # a corner the fit moves further than this keeps its first estimate
@@ -22,8 +24,7 @@ def refine_corners_on_edges(grey: np.ndarray, corners: np.ndarray, cells: int = 
     """``corners`` (4, 2) of one tag, moved onto the lines fitted to its square's sides in ``grey``
     (uint8). ``cells``: the square's side in cells (the profile along each normal stays within the
     black border cell and the white margin cell)."""
-    import cv2
-
+    cv2 = require_opencv()
     c = np.asarray(corners, dtype=np.float64).reshape(4, 2)
     a, b = c, np.roll(c, -1, axis=0)
     length = np.linalg.norm(b - a, axis=1)

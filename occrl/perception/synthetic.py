@@ -56,8 +56,13 @@ def render_tags(
     """An image of ``tags``, each ``(tag_id, camera_tag, size)``: its 4x4 pose in the camera frame
     (OpenCV's tag frame: centre, x right, y up, z out of the tag) and the side of its black square (m).
 
-    Returns (H, W, 3) uint8 RGB (grey values) when ``rgb``, else (H, W) uint8.
+    Returns (H, W, 3) uint8 RGB (grey values) when ``rgb``, else (H, W) uint8. ``noise_std`` (grey
+    levels) needs ``rng``, a seeded ``numpy.random.Generator``, so that an image can be made again.
     """
+    if noise_std < 0 or not np.isfinite(noise_std):
+        raise ValueError(f"noise_std must be a finite number >= 0 (grey levels), got {noise_std!r}")
+    if noise_std > 0 and not isinstance(rng, np.random.Generator):
+        raise ValueError(f"noise_std > 0 needs rng, a seeded numpy.random.Generator (np.random.default_rng(seed)), got {rng!r}")
     cv2 = require_opencv()
     f = strict_int("supersample", supersample, 1, 17)
     w, h = camera.width * f, camera.height * f
@@ -86,7 +91,7 @@ def render_tags(
         canvas[inside] = warped[inside]
     image = cv2.resize(canvas, (camera.width, camera.height), interpolation=cv2.INTER_AREA) if f > 1 else canvas
     if noise_std > 0:
-        image = image + (rng if rng is not None else np.random.default_rng()).normal(0.0, noise_std, image.shape)
+        image = image + rng.normal(0.0, noise_std, image.shape)
     image = np.clip(np.round(image), 0, 255).astype(np.uint8)
     return np.repeat(image[..., None], 3, axis=2) if rgb else image
 
