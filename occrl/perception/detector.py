@@ -39,7 +39,16 @@ from occrl.perception.checks import positive_number, rigid_transform, strict_int
 from occrl.perception.frames import angle_difference, invert_transform, planar_pose, tilt_deg
 from occrl.perception.opencv import DEFAULT_DICTIONARY, aruco_dictionary, check_dictionary, require_opencv
 
-__all__ = ["TagDetector", "PoseCandidate", "REFINE_METHODS", "AMBIGUITY_PX", "DEFAULT_AGREEMENT", "MAX_DETECTIONS"]
+__all__ = [
+    "TagDetector",
+    "PoseCandidate",
+    "REFINE_METHODS",
+    "AMBIGUITY_PX",
+    "DEFAULT_AGREEMENT",
+    "MAX_DETECTIONS",
+    "MIN_MARKER_DISTANCE_RATE",
+    "DUPLICATE_PX",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -48,8 +57,8 @@ AMBIGUITY_PX = 1.0  # IPPE's second pose is kept when it reprojects within this 
 DEFAULT_AGREEMENT = (0.02, 10.0)  # metres, degrees
 MAX_DETECTIONS = 10  # the observation's object slots (occrl.envs.world_constants.MAX_OBJECTS)
 # OpenCV drops the smaller of two candidate squares closer than this (relative to the perimeter);
-# its default, 0.125, drops the tag for the outline of its white margin in about 1 frame in 20
-# (synthetic frames, benchmarks/tag_detection.py); below 0.02 both copies of a tag are decoded
+# its default, 0.125, dropped the tag for the outline of its white margin in 17 of 320 synthetic
+# frames at 0.1-0.2 m (benchmarks/tag_detection.py); at 0.01 both outlines decode (one id twice)
 MIN_MARKER_DISTANCE_RATE = 0.02
 DUPLICATE_PX = 3.0  # the same id decoded twice with corners this close: one tag
 

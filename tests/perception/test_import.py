@@ -29,3 +29,13 @@ def test_missing_opencv_names_the_extra():
     done = run(code)
     assert done.returncode != 0
     assert 'ImportError: the tag detector and the tag sheet need OpenCV: pip install "occrl[camera]"' in done.stderr
+
+
+def test_limits_are_the_observations():
+    from occrl.envs import world_constants
+    from occrl.envs.observation import MAX_POLY_VERTICES, MAX_SLOTS, MAX_TYPE_ID
+    from occrl.perception import catalogue, checks, detector
+
+    assert catalogue.MAX_TYPE_ID == MAX_TYPE_ID
+    assert detector.MAX_DETECTIONS == MAX_SLOTS
+    assert (checks.MIN_VERTICES, checks.MAX_VERTICES) == (world_constants.MIN_VERTICES, MAX_POLY_VERTICES)
