@@ -117,8 +117,9 @@ def planar(args: argparse.Namespace) -> None:
             for _ in range(args.frames):
                 bearing = rng.uniform(-0.6, 0.6) * half_fov
                 face = np.array([math.sin(bearing), math.cos(bearing)]) * distance  # the tag's centre, gripper at the origin
-                # face 0's outward normal is the object's -y: turned to face the camera, then `angle` more
-                theta = bearing + math.radians(angle) * rng.choice([-1.0, 1.0])
+                # face 0's outward normal, the object's -y turned by theta, (sin theta, -cos theta), points
+                # at the camera for theta = -bearing; then `angle` more
+                theta = -bearing + math.radians(angle) * rng.choice([-1.0, 1.0])
                 centre = face - np.array([-math.sin(theta), math.cos(theta)]) * -0.02
                 truth = (float(centre[0]), float(centre[1]), theta)
                 image = render_objects(camera, catalogue, [(1, truth)], gripper, noise_std=args.noise, rng=rng)
