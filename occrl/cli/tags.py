@@ -4,11 +4,18 @@ from __future__ import annotations
 
 import argparse
 
-from occrl.cli.options import bounded
+from occrl.cli.options import HelpFormatter, bounded
 
 __all__ = ["add_tags_parser", "run_tags"]
 
 DPI = bounded(int, 50, 2400, what="an integer in [50, 2400]")
+
+EPILOG = """\
+examples:
+  occrl tags my_catalogue.json --out tags.pdf             every tag of the catalogue, A4 pages
+  occrl tags my_catalogue.json --out tags.png --dpi 600   PNG at 600 dpi (tags-1.png, ... if several pages)
+
+Print at 100 % scale and check the 50 mm bar on each page with a ruler before sticking the tags."""
 
 
 def add_tags_parser(sub) -> None:
@@ -19,11 +26,13 @@ def add_tags_parser(sub) -> None:
         description="Write the tags of a catalogue (JSON, see occrl.perception.catalogue) at true size, each labelled with "
         "its tag id, object type and face, with a 50 mm bar per page to check the print's scale. Needs OpenCV: "
         'pip install "occrl[camera]".',
+        epilog=EPILOG,
+        formatter_class=HelpFormatter,
     )
     g.add_argument("catalogue", help="the tag catalogue (JSON)")
     g.add_argument("--out", required=True, help="the sheet: a .pdf (one page per sheet) or a .png (one file per page)")
-    g.add_argument("--dpi", type=DPI, default=300, help="pixels per inch of the sheet (default 300)")
-    g.add_argument("--page", choices=["a4", "letter"], default="a4", help="paper size (default a4)")
+    g.add_argument("--dpi", type=DPI, default=300, help="pixels per inch of the sheet")
+    g.add_argument("--page", choices=["a4", "letter"], default="a4", help="paper size")
     g.set_defaults(func=run_tags)
 
 
