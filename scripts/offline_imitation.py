@@ -349,9 +349,6 @@ def action_errors(net, data: TensorDictBase, chunk: int) -> dict[str, float]:
             td = as_float(data[start : start + chunk])
             head = net.actor.module[0](net.trunk(td).select("belief").copy())
             loc = head.get("loc")
-            if loc.dim() > td.get("expert_action").dim():  # a mixture policy: its likeliest component
-                logits = head.get("mixture_logits")
-                loc = loc.gather(-2, logits.argmax(-1)[..., None, None].expand(*loc.shape[:-2], 1, loc.shape[-1]))[..., 0, :]
             teacher, labelled = td.get("expert_action"), td.get("expert_weight").reshape(td.shape) > 0
             loc, teacher = loc[labelled], teacher[labelled]
             sums += ((loc[:, :3].clamp(-1, 1) - teacher[:, :3]).abs() * scale).sum(0)

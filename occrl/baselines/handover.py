@@ -2,9 +2,10 @@
 
 :class:`SearchThenRetrieve` runs a searcher (e.g. the hybrid planner) until perception first
 reports the target in a world's episode, and a retriever (e.g. the hierarchical OMPL planner)
-from then on. Beyond the papers: a diagnosis of where a method loses tasks (search or
-retrieval, ``scripts/handover.py``; the hybrid planner's search with the hierarchical planner's
-retrieval did not beat the hierarchical planner alone: docs/decisions.md, issue 16).
+from then on. Beyond the papers: a teacher for imitation (the hierarchical planner's search, then
+the clearing retriever deciding from observations) and a way to tell where a method loses tasks,
+in its search or its retrieval (the hybrid planner's search with the hierarchical planner's
+retrieval did not beat the hierarchical planner alone: docs/decisions.md).
 """
 
 from __future__ import annotations

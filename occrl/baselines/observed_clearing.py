@@ -14,7 +14,7 @@ It does not search: before the target has been detected in an episode it has not
 retrieve and holds still with the gripper open (:data:`NO_TARGET_ACTION`). As a teacher
 (``occrl train --imitation-teacher clearing-observed``) it takes over in a share of the episodes
 at the first detection and the frames it acts on are the labels; its answers on the learner's
-own states are mostly "back out first" (``scripts/label_census.py``), which the learner, trained
+own states are mostly "back out first", which the learner, trained
 on them, learned to do everywhere (docs/decisions.md).
 """
 

@@ -21,7 +21,6 @@ from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
 from torchrl.envs.utils import ExplorationType, set_exploration_type
 
-from occrl.modules.mixture_policy import mixture_action
 from occrl.modules.occnet import OccNet, require_recurrent_state
 
 __all__ = ["NetPolicy"]
@@ -33,20 +32,10 @@ class NetPolicy(TensorDictModuleBase):
     Args:
         net: the network (with or without heat-map head); its recurrent state travels through
             the tensordict as for ``net.policy`` (append ``net.make_primer()`` to the env).
-        stochastic: sample ``loc + scale * eps`` (the policy's Normal) instead of taking ``loc``
-            (a mixture policy: a component drawn by its probability, then sampled; greedy: the
-            mean of the most probable component).
+        stochastic: sample ``loc + scale * eps`` (the policy's Normal) instead of taking ``loc``.
         seed: seeds the sampling until :meth:`reseed_worlds` or :meth:`reseed` is called.
         spread: multiplies the standard deviation of the sampled actions, a temperature (1: the
             policy's own; 0: its mean, drawn from the same generators). Stochastic only.
-        noise_correlation: ``rho`` in (-1, 1): each world's normal draws follow an AR(1) process
-            across the actions of an episode, ``z_t = rho z_{t-1} + sqrt(1 - rho^2) x_t`` (``x_t``
-            the draws of ``rho = 0``, from the same generators), restarted where ``"is_init"`` is
-            set. Every action's distribution stays the policy's; successive actions share part of
-            their draw (rho near 1: one sampled "plan" kept for many actions). A mixture policy's
-            component draw is carried the same way through its normal quantile. 0 (the default):
-            independent draws, the paper's Stochastic baseline. Stochastic only; a diagnosis
-            (``scripts/noise_persistence.py``, docs/decisions.md).
 
     Examples:
         >>> import torch
@@ -65,7 +54,7 @@ class NetPolicy(TensorDictModuleBase):
         (torch.Size([2, 3, 4]), True)
     """
 
-    def __init__(self, net: OccNet, stochastic: bool, seed: int = 0, spread: float = 1.0, noise_correlation: float = 0.0) -> None:
+    def __init__(self, net: OccNet, stochastic: bool, seed: int = 0, spread: float = 1.0) -> None:
         super().__init__()
         if not isinstance(net, OccNet):
             raise TypeError(f"net must be an occrl OccNet (make_occnet / load_pretrained), got {type(net).__name__}")
@@ -75,16 +64,9 @@ class NetPolicy(TensorDictModuleBase):
             raise ValueError(f"spread must be a finite number >= 0 (1: the policy's own standard deviation), got {spread!r}")
         if spread != 1.0 and not stochastic:
             raise ValueError(f"spread applies to sampled actions only (stochastic=True), got spread={spread!r} with stochastic=False")
-        rho = noise_correlation
-        if isinstance(rho, bool) or not isinstance(rho, (int, float)) or not -1.0 < rho < 1.0:
-            raise ValueError(f"noise_correlation must be a number in (-1, 1) (0: independent draws), got {rho!r}")
-        if rho != 0.0 and not stochastic:
-            raise ValueError(f"noise_correlation applies to sampled actions only (stochastic=True), got {rho!r} with stochastic=False")
         self.net = net
         self.stochastic = stochastic
         self.spread = float(spread)
-        self.noise_correlation = float(noise_correlation)
-        self._previous_draws: torch.Tensor | None = None  # each world's last normal draws (noise_correlation)
         self.in_keys = list(net.policy.in_keys)
         self.out_keys = list(net.policy.out_keys)
         self._generators: list[torch.Generator] = []
@@ -95,12 +77,10 @@ class NetPolicy(TensorDictModuleBase):
         :meth:`reseed_worlds`)."""
         self._shared = torch.Generator().manual_seed(int(seed))
         self._generators = []
-        self._previous_draws = None
 
     def reseed_worlds(self, seeds: Sequence[int]) -> None:
         """World ``i`` of the next batches samples from a generator seeded by ``seeds[i]``."""
         self._generators = [torch.Generator().manual_seed(int(s)) for s in seeds]
-        self._previous_draws = None
 
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
         require_recurrent_state(tensordict, type(self).__name__)
@@ -109,45 +89,12 @@ class NetPolicy(TensorDictModuleBase):
         if not self.stochastic:
             return tensordict
         loc, scale = tensordict.get("loc"), tensordict.get("scale")
-        mixture = self.net.config.policy_components > 1
-        action_shape = loc.shape[:-2] + loc.shape[-1:] if mixture else loc.shape
-        worlds, dim = int(torch.Size(action_shape[:-1]).numel()), action_shape[-1]
+        worlds, dim = int(loc.shape[:-1].numel()), loc.shape[-1]
         if len(self._generators) == worlds:
             eps = torch.stack([torch.randn(dim, generator=g) for g in self._generators])
-            # a mixture's component: one more draw per world after its action's (none for the paper's policy)
-            uniform = torch.stack([torch.rand((), generator=g) for g in self._generators]) if mixture else None
         else:
             eps = torch.randn((worlds, dim), generator=self._shared)
-            uniform = torch.rand(worlds, generator=self._shared) if mixture else None
-        if self.noise_correlation != 0.0:
-            eps, uniform = self._correlated(eps, uniform, tensordict)
         if self.spread != 1.0:
             scale = scale * self.spread
-        eps = eps.reshape(action_shape).to(loc.dtype)
-        if mixture:
-            action = mixture_action(loc, scale, tensordict.get("mixture_logits"), uniform.reshape(action_shape[:-1]), eps)
-        else:
-            action = loc + scale * eps
-        tensordict.set("action", action)
+        tensordict.set("action", loc + scale * eps.reshape(loc.shape).to(loc.dtype))
         return tensordict
-
-    def _correlated(
-        self, eps: torch.Tensor, uniform: torch.Tensor | None, tensordict: TensorDictBase
-    ) -> tuple[torch.Tensor, torch.Tensor | None]:
-        """This step's draws (worlds, dim) (and a mixture's uniform component draws (worlds,))
-        made the next values of each world's AR(1) process (``noise_correlation``)."""
-        if "is_init" not in tensordict.keys():
-            raise KeyError("noise_correlation needs the episode starts, 'is_init' (an InitTracker on the env, as make_env adds)")
-        worlds, dim = eps.shape
-        z = eps
-        if uniform is not None:  # the component's uniform draw, as a normal quantile
-            z = torch.cat([z, math.sqrt(2.0) * torch.erfinv(2 * uniform.clamp(1e-7, 1 - 1e-7) - 1)[:, None]], 1)
-        start = tensordict.get("is_init").reshape(worlds).bool()
-        previous = self._previous_draws
-        if previous is not None and previous.shape == z.shape:
-            rho = self.noise_correlation
-            z = torch.where(start[:, None], z, rho * previous + math.sqrt(1 - rho**2) * z)
-        self._previous_draws = z
-        if uniform is None:
-            return z, None
-        return z[:, :dim], 0.5 * (1 + torch.erf(z[:, dim] / math.sqrt(2.0)))

@@ -108,8 +108,8 @@ class Method:
     exploration: ExplorationType = ExplorationType.RANDOM
     network: str | None = None
     image_size: int = DEFAULT_SIZE
-    """Pixels a side of the env's network input: the network's ``config.image_size`` (64; 128 for
-    the ``"fine"`` preset); methods without a network ignore the image."""
+    """Pixels a side of the env's network input: the network's ``config.image_size`` (64 for the
+    paper's network); methods without a network ignore the image."""
     remembered_detections: bool = False
     """Whether the env draws earlier detections into the image: the network's
     ``config.remembered_detections``."""

@@ -3,9 +3,6 @@
 from occrl.modules.encoder import ConvEncoder
 from occrl.modules.heads import HeatmapHead, PolicyHead, ValueHead
 from occrl.modules.occnet import PRESETS, OccNet, OccNetConfig, make_occnet, with_remembered_detections
-from occrl.modules.finer_input import with_finer_input
-from occrl.modules.mixture_policy import GaussianMixture, MixturePolicyHead, with_mixture_policy
-from occrl.modules.wider import with_wider_network
 
 __all__ = [
     "ConvEncoder",
@@ -16,10 +13,5 @@ __all__ = [
     "OccNetConfig",
     "make_occnet",
     "PRESETS",
-    "with_finer_input",
-    "MixturePolicyHead",
-    "GaussianMixture",
-    "with_mixture_policy",
     "with_remembered_detections",
-    "with_wider_network",
 ]

@@ -83,10 +83,9 @@ class HeatmapHead(nn.Module):
         torch.Size([2, 1, 64, 64])
     """
 
-    def __init__(self, in_features: int = 128, channels: Sequence[int] = (8, 8, 16), image_size: int = 64, upsample: int = 1) -> None:
+    def __init__(self, in_features: int = 128, channels: Sequence[int] = (8, 8, 16), image_size: int = 64) -> None:
         super().__init__()
-        self.upsample = int(upsample)  # the map is decoded at image_size / upsample, then repeated to image_size
-        self.side = image_size // self.upsample // 2 ** len(channels)
+        self.side = image_size // 2 ** len(channels)
         self.c0 = channels[0]
         self.project = nn.Sequential(nn.Linear(in_features, self.c0 * self.side * self.side), nn.LeakyReLU())
         layers: list[nn.Module] = []
@@ -101,6 +100,4 @@ class HeatmapHead(nn.Module):
         lead = belief.shape[:-1]
         x = self.project(belief.reshape(-1, belief.shape[-1])).reshape(-1, self.c0, self.side, self.side)
         out = self.decode(x.contiguous(memory_format=torch.channels_last))  # as in ConvEncoder: faster, same values
-        if self.upsample > 1:
-            out = nn.functional.interpolate(out, scale_factor=self.upsample, mode="nearest")
         return out.reshape(*lead, *out.shape[1:])

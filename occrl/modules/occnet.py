@@ -23,7 +23,6 @@ from torchrl.modules import IndependentNormal, LSTMModule, ProbabilisticActor, V
 from occrl.envs import world_constants as C
 from occrl.modules.encoder import ConvEncoder
 from occrl.modules.heads import HeatmapHead, PolicyHead, ValueHead
-from occrl.modules.mixture_policy import GaussianMixture, MixturePolicyHead
 
 __all__ = [
     "OccNetConfig",
@@ -39,8 +38,8 @@ __all__ = [
 # what a recurrent decision maker reads besides the observation: the LSTM's state entries (added by
 # the net's primer) and the episode-start flag (added by TorchRL's InitTracker, which make_env adds)
 RECURRENT_KEYS = ("recurrent_state_h", "recurrent_state_c", "is_init")
-# what the policy head writes: the paper's Gaussian (False), a mixture of Gaussians (True)
-POLICY_OUTPUTS = {False: ("loc", "scale"), True: ("loc", "scale", "mixture_logits")}
+# what the policy head writes: the mean and standard deviation of the paper's Gaussian policy
+POLICY_OUTPUTS = ("loc", "scale")
 
 
 def require_recurrent_state(tensordict, who: str) -> None:
@@ -86,15 +85,6 @@ class OccNetConfig:
     heatmap: bool = True
     batch_norm: bool = True
     action_dim: int = C.ACTION_DIM
-    policy_components: int = 1
-    """1: the paper's policy, one diagonal Gaussian (``"loc"``, ``"scale"`` of shape (..., A)).
-    K > 1: a mixture of K Gaussians (:mod:`occrl.modules.mixture_policy`): ``"loc"`` and
-    ``"scale"`` of shape (..., K, A) and ``"mixture_logits"`` (..., K)."""
-    detail_channels: int = 0
-    """0: the paper's encoder on ``image_size`` pixels. > 0: the paper's encoder on every other
-    pixel plus a detail branch of that many channels on all of them
-    (:class:`~occrl.modules.ConvEncoder`), and the heat-map decoded at half the size and repeated
-    2 x 2: the ``"fine"`` preset's 128 x 128 window."""
     remembered_detections: bool = False
     """False: the paper's image, the objects detected now. True: the image also draws the objects
     detected earlier in the episode where they were last seen
@@ -103,16 +93,9 @@ class OccNetConfig:
     ``occrl eval`` make it from this setting."""
 
     def __post_init__(self) -> None:
-        if self.policy_components < 1:
-            raise ValueError(f"policy_components must be >= 1 (1: the paper's Gaussian policy), got {self.policy_components}")
-        if self.detail_channels < 0:
-            raise ValueError(f"detail_channels must be >= 0, got {self.detail_channels}")
-        factor = 2 ** len(self.conv_channels) * (2 if self.detail_channels else 1)
+        factor = 2 ** len(self.conv_channels)
         if self.image_size < factor or self.image_size % factor:
-            raise ValueError(
-                f"image_size must be a multiple of {factor} (2 per conv stage{' and 2 for the detail branch' if self.detail_channels else ''}), "
-                f"got {self.image_size}"
-            )
+            raise ValueError(f"image_size must be a multiple of {factor} (2 per conv stage), got {self.image_size}")
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -120,19 +103,9 @@ class OccNetConfig:
 
 PRESETS: dict[str, OccNetConfig] = {
     "paper": OccNetConfig(),
-    # beyond the paper: the same 0.8 m window at 128 x 128 (6.25 mm per pixel), the paper's encoder
-    # on every other pixel plus a detail branch (docs/decisions.md, "what its image can tell it");
-    # occrl.modules.with_finer_input turns a trained paper network into one that starts as it
-    "fine": OccNetConfig(image_size=128, detail_channels=8),
-    # beyond the paper: the policy a mixture of 4 Gaussians, for teachers with several plans
-    # (occrl.modules.mixture_policy; with_mixture_policy turns a trained paper network into one)
-    "mixture": OccNetConfig(policy_components=4),
     # beyond the paper: the image also draws the objects detected earlier in the episode
     # (occrl.envs.remembered); with_remembered_detections turns a trained paper network into one
     "remembered": OccNetConfig(remembered_detections=True),
-    # beyond the paper: twice the channels, LSTM units and hidden units (occrl.modules.wider;
-    # with_wider_network turns a trained paper network into one that computes the same)
-    "wide": OccNetConfig(conv_channels=(16, 16, 32), lstm_hidden=256, policy_hidden=(256, 256), value_hidden=(256, 128)),
 }
 
 
@@ -163,26 +136,19 @@ class OccNet(nn.Module):
     def __init__(self, config: OccNetConfig) -> None:
         super().__init__()
         self.config = config
-        encoder = ConvEncoder(3, config.conv_channels, config.image_size, config.batch_norm, config.detail_channels)
+        encoder = ConvEncoder(3, config.conv_channels, config.image_size, config.batch_norm)
         self.encoder = TensorDictModule(encoder, in_keys=["pixels"], out_keys=["embed"])
         self.lstm = LSTMModule(input_size=encoder.out_features, hidden_size=config.lstm_hidden, in_key="embed", out_key="belief")
         self.trunk = TensorDictSequential(self.encoder, self.lstm)
-        if config.policy_components == 1:
-            head_module: nn.Module = PolicyHead(config.lstm_hidden, config.policy_hidden, config.action_dim)
-            distribution: dict = {"in_keys": ["loc", "scale"], "distribution_class": IndependentNormal}
-        else:
-            head_module = MixturePolicyHead(config.lstm_hidden, config.policy_hidden, config.action_dim, config.policy_components)
-            distribution = {
-                "in_keys": {"loc": "loc", "scale": "scale", "mixture_logits": "mixture_logits"},
-                "distribution_class": GaussianMixture,
-            }
-        head = TensorDictModule(head_module, in_keys=["belief"], out_keys=list(POLICY_OUTPUTS[config.policy_components > 1]))
+        head_module = PolicyHead(config.lstm_hidden, config.policy_hidden, config.action_dim)
+        distribution: dict = {"in_keys": list(POLICY_OUTPUTS), "distribution_class": IndependentNormal}
+        head = TensorDictModule(head_module, in_keys=["belief"], out_keys=list(POLICY_OUTPUTS))
         self.actor = ProbabilisticActor(head, out_keys=["action"], return_log_prob=True, log_prob_key="action_log_prob", **distribution)
         self.critic = ValueOperator(ValueHead(config.lstm_hidden, config.value_hidden), in_keys=["belief"])
         if config.heatmap:
             self.heatmap_head = TensorDictSequential(
                 TensorDictModule(
-                    HeatmapHead(config.lstm_hidden, config.heatmap_channels, config.image_size, 2 if config.detail_channels else 1),
+                    HeatmapHead(config.lstm_hidden, config.heatmap_channels, config.image_size),
                     in_keys=["belief"],
                     out_keys=["heatmap_logits"],
                 ),

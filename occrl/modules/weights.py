@@ -14,11 +14,20 @@ import torch
 
 from occrl.modules.occnet import OccNet, OccNetConfig
 
-__all__ = ["save_weights", "load_weights", "read_occrl_file", "check_architecture", "atomic_save", "CheckpointError",
-           "WEIGHTS_FORMAT", "CHECKPOINT_FORMAT"]  # fmt: skip
+__all__ = ["save_weights", "load_weights", "read_occrl_file", "check_architecture", "stored_net_config", "atomic_save",
+           "CheckpointError", "WEIGHTS_FORMAT", "CHECKPOINT_FORMAT", "REMOVED_NET_SETTINGS", "REMOVED_NET_SETTINGS_COMMIT"]  # fmt: skip
 
 WEIGHTS_FORMAT = "occrl-weights-v1"
 CHECKPOINT_FORMAT = "occrl-checkpoint-v1"  # a training checkpoint (occrl.training.checkpoint) also holds weights
+
+# network settings that experiments beyond the papers added and that occrl no longer has, each with
+# the value every paper network stores: a file storing them at that value loads as before, another
+# value names the commit whose code builds that network
+REMOVED_NET_SETTINGS = {
+    "policy_components": 1,  # > 1: the policy a mixture of Gaussians
+    "detail_channels": 0,  # > 0: a detail branch on a 128 x 128 image
+}
+REMOVED_NET_SETTINGS_COMMIT = "53b1240"
 
 
 class CheckpointError(ValueError):
@@ -59,11 +68,41 @@ def read_occrl_file(path: str | Path, expected_format: str) -> dict:
     return obj
 
 
+def stored_net_config(stored: dict, path) -> dict:
+    """The network settings a file stores (its ``"net_config"``), as :class:`OccNetConfig` takes
+    them: lists as tuples, and the settings of :data:`REMOVED_NET_SETTINGS` dropped where they hold
+    the paper's value. A removed setting at another value raises ``CheckpointError`` naming the
+    commit whose code builds that network.
+
+    Examples:
+        >>> from occrl.modules.weights import stored_net_config
+        >>> stored_net_config({"lstm_hidden": 128, "policy_hidden": [128, 128], "detail_channels": 0}, "net.pt")
+        {'lstm_hidden': 128, 'policy_hidden': (128, 128)}
+        >>> stored_net_config({"policy_components": 4}, "mixture.pt")
+        Traceback (most recent call last):
+            ...
+        occrl.modules.weights.CheckpointError: mixture.pt stores policy_components=4, a network setting occrl no longer has (only policy_components=1, the paper's, loads); the code that builds this network is at commit 53b1240: git checkout 53b1240
+    """
+    config = {}
+    for key, value in stored.items():
+        if key in REMOVED_NET_SETTINGS:
+            if value != REMOVED_NET_SETTINGS[key]:
+                raise CheckpointError(
+                    f"{path} stores {key}={value!r}, a network setting occrl no longer has (only {key}={REMOVED_NET_SETTINGS[key]!r}, "
+                    f"the paper's, loads); the code that builds this network is at commit {REMOVED_NET_SETTINGS_COMMIT}: "
+                    f"git checkout {REMOVED_NET_SETTINGS_COMMIT}"
+                )
+            continue
+        config[key] = tuple(value) if isinstance(value, list) else value
+    return config
+
+
 def check_architecture(net: OccNet, config: dict, path) -> None:
-    """``CheckpointError`` naming the differences when ``config`` is not ``net``'s architecture.
-    Settings added to :class:`OccNetConfig` after the file was written take their defaults (the
-    architecture the file was saved from), as :func:`load_weights` builds it."""
-    config = {**OccNetConfig().to_dict(), **config}
+    """``CheckpointError`` naming the differences when ``config`` (a file's ``"net_config"``) is not
+    ``net``'s architecture. Settings added to :class:`OccNetConfig` after the file was written take
+    their defaults (the architecture the file was saved from), as :func:`load_weights` builds it;
+    removed ones are read by :func:`stored_net_config`."""
+    config = {**OccNetConfig().to_dict(), **stored_net_config(config, path)}
     if config != net.config.to_dict():
         diff = {k: (config.get(k), v) for k, v in net.config.to_dict().items() if config.get(k) != v}
         raise CheckpointError(f"{path} was saved from another architecture; differences (file, this net): {diff}")
@@ -107,7 +146,7 @@ def load_weights(path: str | Path, net: OccNet | None = None) -> OccNet:
         occrl.modules.weights.CheckpointError: ...net.pt was saved from another architecture; differences (file, this net): {'heatmap': (True, False)}
     """
     obj = read_occrl_file(path, WEIGHTS_FORMAT)
-    cfg = {k: tuple(v) if isinstance(v, list) else v for k, v in obj["net_config"].items()}
+    cfg = stored_net_config(obj["net_config"], path)
     if net is None:
         try:
             net = OccNet(OccNetConfig(**cfg))

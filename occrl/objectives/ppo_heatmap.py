@@ -19,7 +19,6 @@ from torchrl.objectives import ClipPPOLoss
 from torchrl.objectives.value.functional import generalized_advantage_estimate
 
 from occrl.envs import world_constants as C
-from occrl.modules.mixture_policy import GaussianMixture
 from occrl.modules.occnet import OccNet
 
 __all__ = ["PPOHeatmapLoss", "heatmap_bce", "heatmap_loss", "compute_advantages", "imitation_nll", "belief_detached"]
@@ -163,10 +162,7 @@ def _expert_nll(policy_head, tensordict: TensorDictBase, min_scale: float) -> to
     td = policy_head(tensordict.select("belief").copy())
     loc, scale = td.get("loc"), td.get("scale").clamp_min(min_scale)
     expert = tensordict.get("expert_action")
-    if "mixture_logits" in td.keys():  # a mixture policy (occrl.modules.mixture_policy): each component's scale floored
-        nll = -GaussianMixture(loc, scale, td.get("mixture_logits")).log_prob(expert)
-    else:
-        nll = -torch.distributions.Normal(loc, scale).log_prob(expert).sum(-1)
+    nll = -torch.distributions.Normal(loc, scale).log_prob(expert).sum(-1)
     if "expert_weight" not in tensordict.keys():
         return nll.mean()
     weight = tensordict.get("expert_weight").reshape(nll.shape).to(nll.dtype)

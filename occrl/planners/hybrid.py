@@ -261,8 +261,7 @@ class HybridPlanner(TensorDictModuleBase):
     def roots(self, obs: TensorDictBase, heatmap: np.ndarray) -> list[Root]:
         """The weighted root states of one observation (Alg. 1's state generation): the recreated
         state, with the target at the heat-map's peaks while it is not detected. A subclass may
-        plan from other roots (:class:`occrl.baselines.oracle_planner.OracleRootsPlanner` plans from the true
-        state: a diagnosis and a privileged teacher)."""
+        plan from other roots."""
         roots = generate_states(heatmap, recreate(obs), self.max_roots)
         if self.limited:
             roots = [max(roots, key=lambda r: r.weight)]

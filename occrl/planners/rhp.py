@@ -14,7 +14,6 @@ Both draw the policy's noise from the same tensor, so with the same seed they ch
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Sequence
 
@@ -25,7 +24,6 @@ from occrl.envs import world_constants as C
 from occrl.envs.observation import world_pixels
 from occrl.envs.robot_frame import DEFAULT_SIZE
 from occrl.envs.pymunk2d.world import ShelfWorld
-from occrl.modules.mixture_policy import mixture_action
 from occrl.modules.occnet import POLICY_OUTPUTS, OccNet
 from occrl.planners.recreate import RecreatedState, WorldPool, make_world
 
@@ -34,7 +32,7 @@ __all__ = ["RHPResult", "rhp_batched", "rhp_sequential", "render_pixels", "Netwo
 
 def render_pixels(worlds: Sequence[ShelfWorld], size: int = DEFAULT_SIZE) -> torch.Tensor:
     """The network input each world's camera would give: (N, 3, size, size) in [0, 1] (the
-    network's ``config.image_size``: 64, or 128 for the ``"fine"`` preset).
+    network's ``config.image_size``, 64 for the paper's network).
 
     The env's own observation pipeline (:func:`occrl.envs.observation.world_pixels`): a world
     recreated from an observation renders the image of that observation, pixel for pixel.
@@ -72,11 +70,11 @@ class StepGraph(torch.nn.Module):
         super().__init__()
         self.encoder, self.lstm = net.encoder.module, net.lstm.lstm
         self.policy_head, self.value_head = net.actor.module[0].module, net.critic.module
-        self.policy_outputs = POLICY_OUTPUTS[net.config.policy_components > 1]  # the names of the head's outputs
+        self.policy_outputs = POLICY_OUTPUTS  # the names of the head's outputs
 
     def step(self, pixels: torch.Tensor, h: torch.Tensor, c: torch.Tensor):
         """LSTMModule's one-step path (a time dimension of 1; state as (layers, B, H)) and the
-        policy head: belief, the head's outputs (loc, scale, and a mixture's logits) and the
+        policy head: belief, the head's outputs (loc, scale) and the
         state after the images."""
         belief, (h_next, c_next) = self.lstm(self.encoder(pixels).unsqueeze(1), (h, c))
         belief = belief[:, -1]
@@ -241,31 +239,28 @@ def _finish(returns: np.ndarray, first: np.ndarray, steps: int, paths: np.ndarra
 
 
 def noise_dim(net: OccNet) -> int:
-    """Standard normal draws per roll-out step: one per action dimension, and for a mixture policy
-    one more that picks the component (:func:`rollout_action`).
+    """Standard normal draws per roll-out step: one per action dimension (:func:`rollout_action`).
 
     Examples:
         >>> from occrl.modules import make_occnet
         >>> from occrl.planners.rhp import noise_dim
-        >>> noise_dim(make_occnet("paper")), noise_dim(make_occnet("mixture"))
-        (4, 5)
+        >>> noise_dim(make_occnet("paper"))
+        4
     """
-    return net.config.action_dim + (net.config.policy_components > 1)
+    return net.config.action_dim
 
 
 def check_noise(net: OccNet, noise: torch.Tensor) -> None:
     """``ValueError`` unless ``noise`` is (R, m, h, :func:`noise_dim`)."""
     if noise.ndim != 4 or noise.shape[-1] != noise_dim(net):
         raise ValueError(
-            f"noise must be (roots, m, h, {noise_dim(net)}) standard normal draws for this network "
-            f"({net.config.policy_components} policy component(s)), got shape {tuple(noise.shape)}"
+            f"noise must be (roots, m, h, {noise_dim(net)}) standard normal draws for this network, got shape {tuple(noise.shape)}"
         )
 
 
 def rollout_action(out: dict[str, torch.Tensor], eps: torch.Tensor) -> torch.Tensor:
     """The roll-outs' actions (B, A) from the network's outputs and standard normal draws ``eps``
-    (B, A), or (B, A + 1) for a mixture policy, whose last draw picks the component through the
-    normal distribution's CDF (a uniform; :func:`occrl.modules.mixture_policy.mixture_action`).
+    (B, A): the policy's Gaussian sample ``loc + scale * eps``.
 
     Examples:
         >>> import torch
@@ -274,10 +269,7 @@ def rollout_action(out: dict[str, torch.Tensor], eps: torch.Tensor) -> torch.Ten
         >>> rollout_action(out, torch.ones(1, 4)).tolist()
         [[0.5, 0.5, 0.5, 0.5]]
     """
-    if "mixture_logits" not in out:
-        return out["loc"] + out["scale"] * eps
-    uniform = 0.5 * (1.0 + torch.erf(eps[..., -1] / math.sqrt(2.0)))
-    return mixture_action(out["loc"], out["scale"], out["mixture_logits"], uniform, eps[..., :-1])
+    return out["loc"] + out["scale"] * eps
 
 
 def rhp_batched(

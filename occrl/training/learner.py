@@ -82,13 +82,10 @@ class Learner:
         )
         params: list = list(net.parameters())
         if config.detail_lr > 0:
-            if not net.config.detail_channels:
-                raise ValueError(
-                    f"detail_lr={config.detail_lr} needs a network with a detail branch (net_preset 'fine'), got detail_channels=0"
-                )
-            detail = list(net.encoder.module.detail.parameters())
-            rest = [p for p in params if all(p is not q for q in detail)]
-            params = [{"params": detail, "lr": config.detail_lr}, {"params": rest}]
+            raise ValueError(
+                f"detail_lr={config.detail_lr} needs a network with a detail branch, which occrl no longer builds; "
+                "its code is at commit 53b1240 (git checkout 53b1240)"
+            )
         if config.optimizer == "rmsprop":
             self.optimizer = torch.optim.RMSprop(params, lr=config.lr)
         elif config.optimizer == "adam":

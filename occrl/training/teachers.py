@@ -16,7 +16,6 @@ from pathlib import Path
 from occrl.baselines.clearing import ClearingRetriever
 from occrl.baselines.handover import SearchThenRetrieve
 from occrl.baselines.observed_clearing import ObservedClearingRetriever
-from occrl.baselines.oracle_planner import OracleRootsPlanner
 from occrl.baselines.scripted import ScriptedRetriever
 from occrl.modules.occnet import OccNet
 from occrl.modules.weights import load_weights
@@ -72,19 +71,12 @@ def make_expert(config: TrainConfig, acting_net: OccNet, seed: int, teacher_net:
     (``teacher_weights``) is given; planners are reseeded every iteration."""
     if config.imitation_teacher == "hybrid-acting":
         planning_net = acting_net if teacher_net is None else teacher_net
-        if config.teacher_roots != "own" or config.teacher_to_the_end:  # privileged roots, or no value
-            expert = OracleRootsPlanner(
-                planning_net,
-                config.teacher_roots,
-                config.teacher_to_the_end,
-                m=4,
-                h=4,
-                seed=seed,
-                inference=config.teacher_inference,
-                batch_worlds=not config.teacher_to_the_end,
+        if config.teacher_roots != "own" or config.teacher_to_the_end:
+            raise ValueError(
+                f"teacher_roots={config.teacher_roots!r} / teacher_to_the_end={config.teacher_to_the_end} need the privileged "
+                "planner occrl no longer has; its code is at commit 53b1240 (git checkout 53b1240)"
             )
-        else:
-            expert = HybridPlanner(planning_net, m=4, h=4, seed=seed, inference=config.teacher_inference, batch_worlds=True)
+        expert = HybridPlanner(planning_net, m=4, h=4, seed=seed, inference=config.teacher_inference, batch_worlds=True)
         if config.retrieval_takeover > 0:  # a retriever acts in a share of the retrievals
             taker = make_retriever(config.takeover_retriever, seed, config.teacher_replan_inside)
             expert = RetrievalTakeover(expert, taker, config.retrieval_takeover, seed=seed, at=config.takeover_at)

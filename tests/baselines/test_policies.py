@@ -57,37 +57,3 @@ def test_spread_must_be_a_finite_non_negative_number_for_sampled_actions():
             NetPolicy(net, stochastic=True, spread=bad)
     with pytest.raises(ValueError, match="sampled actions only"):
         NetPolicy(net, stochastic=False, spread=2.0)
-
-
-def test_noise_correlation_makes_each_worlds_draws_an_ar1_process_restarted_at_episode_starts():
-    torch.manual_seed(0)
-    net = make_occnet("paper", heatmap=False).eval()
-    rho = 0.8
-    independent, correlated = NetPolicy(net, stochastic=True), NetPolicy(net, stochastic=True, noise_correlation=rho)
-    own = _rollout(independent, net, [1, 2])
-    held = _rollout(correlated, net, [1, 2])
-    x = (own["action"] - own["loc"]) / own["scale"]  # the draws of rho = 0, from the same generators
-    z = (held["action"] - held["loc"]) / held["scale"]
-    assert torch.allclose(z[:, 0], x[:, 0], atol=1e-5)  # the process starts at the first draw
-    for t in range(1, z.shape[1]):
-        assert torch.allclose(z[:, t], rho * z[:, t - 1] + (1 - rho**2) ** 0.5 * x[:, t], atol=1e-4)
-    # one more step, world 0 starting an episode: its draw is the fresh one, world 1's carries on
-    step = held[:, -1]["next"].clone()
-    step.set("is_init", torch.tensor([[True], [False]]))
-    fresh = independent(step.clone())
-    carried = correlated(step.clone())
-    x_next = (fresh["action"] - fresh["loc"]) / fresh["scale"]
-    z_next = (carried["action"] - carried["loc"]) / carried["scale"]
-    assert torch.allclose(z_next[0], x_next[0], atol=1e-5)
-    assert torch.allclose(z_next[1], rho * z[1, -1] + (1 - rho**2) ** 0.5 * x_next[1], atol=1e-4)
-    # reseeding starts every world's process afresh: the same episode again
-    assert torch.allclose(_rollout(correlated, net, [1, 2])["action"], held["action"], atol=1e-6)
-
-
-def test_noise_correlation_must_lie_in_the_open_unit_interval_for_sampled_actions():
-    net = make_occnet("paper", heatmap=False).eval()
-    for bad in (1.0, -1.0, 1.5, float("nan"), True, "0.5"):
-        with pytest.raises(ValueError, match="noise_correlation must be a number in"):
-            NetPolicy(net, stochastic=True, noise_correlation=bad)
-    with pytest.raises(ValueError, match="sampled actions only"):
-        NetPolicy(net, stochastic=False, noise_correlation=0.5)

@@ -342,33 +342,17 @@ def test_clearing_observed_teacher_after_the_learners_roll_in(tmp_path):
             OnlineTeacherPolicy(tr.net.policy, tr.expert, roll_in=bad)
 
 
-def test_hybrid_acting_teacher_planning_from_the_true_state(tmp_path):
-    """teacher_roots="state": the acting planner plans from one root, the true state (it reads
-    "privileged"); its actions are the labels. With teacher_to_the_end its roll-outs run to the
-    episode's end, its worlds planned one by one."""
-    from occrl.baselines.oracle_planner import OracleRootsPlanner
+def test_hybrid_acting_teacher_from_privileged_roots_is_refused_naming_where_it_lives(tmp_path):
+    """teacher_roots other than "own" and teacher_to_the_end needed a privileged planner that is no
+    longer in occrl: building the teacher says which commit has it."""
     from occrl.training.teachers import make_expert
 
-    cfg = get_train_config("tiny", imitation_iters=5, imitation_teacher="hybrid-acting", collector="single", teacher_roots="state")
-    tr = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False)
-    assert isinstance(tr.expert, OracleRootsPlanner) and tr.expert.net is tr.net
-    assert tr.expert.which == "state" and not tr.expert.to_the_end and "privileged" in tr.expert.in_keys
-    data = tr._collect()
-    decided = tr.expert.decisions[-data.numel() :]
-    assert all(len(d.roots) == 1 for d in decided)  # one root: the true state, target seen or not
-    taken = data["action"].transpose(0, 1).reshape(-1, 4)
-    assert torch.allclose(taken, torch.stack([torch.as_tensor(d.action, dtype=torch.float32) for d in decided]), atol=1e-6)
-    tr.train(iterations=1)
-    tr.close()
-    deep = make_expert(dataclasses.replace(cfg, teacher_to_the_end=True), tr.net, seed=0)
-    assert isinstance(deep, OracleRootsPlanner) and deep.to_the_end and not deep.batch_worlds
-    td = make_env(batch_size=1, stage=2, seed=3, heatmap_target=False).append_transform(tr.net.make_primer()).reset()
-    deep(td)
-    assert deep.decisions[-1].result.steps > 4 * 4  # past the plain planner's horizon of 4
-    with pytest.raises(ValueError, match="batch_worlds must be False"):
-        OracleRootsPlanner(tr.net, "state", to_the_end=True, batch_worlds=True)
-    with pytest.raises(ValueError, match="which must be one of"):
-        OracleRootsPlanner(tr.net, "truth")
+    cfg = get_train_config("tiny", imitation_iters=5, imitation_teacher="hybrid-acting", collector="single")
+    net = make_occnet("paper")
+    for settings in (dict(teacher_roots="state"), dict(teacher_to_the_end=True)):
+        with pytest.raises(ValueError, match="git checkout 53b1240"):
+            make_expert(dataclasses.replace(cfg, **settings), net, seed=0)
+    assert isinstance(make_expert(cfg, net, seed=0), HybridPlanner)
     for settings in (dict(teacher_roots="state"), dict(teacher_to_the_end=True)):
         with pytest.raises(ValueError, match="apply to imitation_teacher 'hybrid-acting'"):
             Trainer(get_train_config("tiny", imitation_teacher="scripted", **settings), tmp_path / "bad", seed=0, progress=False)

@@ -47,13 +47,13 @@ def test_init_weights_start_a_new_run_and_are_recorded(tmp_path, start_weights):
 
 def test_init_weights_written_before_a_setting_existed_start_a_run(tmp_path):
     """Files written before a network setting was added (e.g. occnet-warmstart and occnet-takeover
-    predate ``detail_channels``) hold the architecture of its default and start a run."""
+    predate ``remembered_detections``) hold the architecture of its default and start a run."""
     for heatmap in (False, True):
         torch.manual_seed(7)
         net, path = make_occnet("paper", heatmap=heatmap), tmp_path / f"old_{heatmap}.pt"
         save_weights(path, net)
         obj = torch.load(path, weights_only=True)
-        del obj["net_config"]["detail_channels"]  # as written before the setting existed
+        del obj["net_config"]["remembered_detections"]  # as written before the setting existed
         torch.save(obj, path)
         tr = Trainer(
             get_train_config("tiny", heatmap=heatmap),
