@@ -143,7 +143,7 @@ def grasp_poses(world: ShelfWorld, index: int, prefer_angle: float = 0.0, limit:
         >>> from occrl.baselines.goals import grasp_poses
         >>> from occrl.envs import Scene, ShelfWorld
         >>> from occrl.envs import world_constants as C
-        >>> from occrl.envs.pymunk2d.world import grasp_candidate
+        >>> from occrl.envs.pymunk2d.fingers import grasp_candidate
         >>> box = [[-0.02, -0.02], [0.02, -0.02], [0.02, 0.02], [-0.02, 0.02]]
         >>> world = ShelfWorld(Scene.from_objects([{"vertices": box, "pose": (0.0, 0.15, 0.0), "is_target": True}]))
         >>> poses = grasp_poses(world, 0)

@@ -37,7 +37,7 @@ re-planned from the current observation once the previous plan was executed open
 planned action per env step, from a queue):
 
 * Retrieve: (1) *reach*: gripper open, goal region = the target alone between the fingers with
-  3 mm margins (the grasp rule of :func:`~occrl.envs.pymunk2d.world.grasp_candidate`), 2 mm clear of the
+  3 mm margins (the grasp rule of :func:`~occrl.envs.pymunk2d.fingers.grasp_candidate`), 2 mm clear of the
   palm (not being pushed), the arm turned at most 50 degrees; (2) *extract*: gripper closed, goal
   region = target held and its centroid ``extract_margin`` past the retrieval line.
 * Rearrange: (1) *reach* the object (same region); (2) *place*: gripper closed, goal region =
@@ -57,8 +57,6 @@ from __future__ import annotations
 import logging
 import math
 import time
-from collections import deque
-from dataclasses import dataclass, field
 
 import numpy as np
 import torch
@@ -71,9 +69,9 @@ from occrl.envs.pymunk2d.world import ShelfWorld
 from occrl.planners.recreate import RecreatedState, make_world
 
 from occrl.baselines.hiding import HidingRegion
+from occrl.baselines.hierarchical_state import EpisodeState, strayed
 from occrl.baselines.goals import GoalSpec, HoldGoal, ReachGoal, grasp_poses
 from occrl.baselines.kinodynamic import PlanResult, SimControlProblem
-from occrl.baselines.object_memory import ObjectMemory
 from occrl.baselines.primitives import closest_object, free_spot, move_out
 from occrl.baselines.motion import (
     CLOSE,
@@ -92,32 +90,6 @@ __all__ = ["HierarchicalPlanner", "ACTION_KINDS"]
 ACTION_KINDS = ("search", "move_out", "reach", "extract", "rearrange_reach", "place")
 
 logger = logging.getLogger(__name__)
-
-
-# ====================================================================== policy
-@dataclass
-class _Episode:
-    """Per-world memory and high-level state."""
-
-    step: int = 0
-    known: ObjectMemory = field(default_factory=ObjectMemory)  # the objects detected so far
-    queue: deque = field(default_factory=deque)
-    expected: deque = field(default_factory=deque)  # gripper pose after each queued action (simulated)
-    awaiting: np.ndarray | None = None  # the pose the last executed queued action should have led to
-    queue_kind: str | None = None  # what the queue does: "reach", "extract", "rearrange_reach", "place", "move_out"
-    replans: int = 0  # plans dropped because the world stopped following them (``follow_tolerance``)
-    last_kind: str = "search"  # what the last action did: "search" or a queue kind (ACTION_KINDS)
-    stage: str = "search"
-    sweep: list | None = None  # waypoints left in the current sweep
-    sweep_full: bool = True  # the current sweep does not stop when the target comes into view
-    force_sweep: bool = False  # a plan failed: the next Search sweeps in full
-    rearranged: set = field(default_factory=set)  # type ids already moved to the back
-    rearrange_id: int | None = None
-    planning_seconds: float = 0.0
-    plans: list = field(default_factory=list)
-    failures: int = 0
-    out_of_time: bool = False
-    hiding: tuple | None = None  # (step, HidingRegion) of the last rearrange decision
 
 
 class HierarchicalPlanner(TensorDictModuleBase):
@@ -236,7 +208,7 @@ class HierarchicalPlanner(TensorDictModuleBase):
         self.avoid_hiding = avoid_hiding
         self.seed = int(seed)
         self._queries = 0
-        self.episodes: list[_Episode] = []
+        self.episodes: list[EpisodeState] = []
 
     # ------------------------------------------------------------------ bookkeeping
     @property
@@ -288,26 +260,26 @@ class HierarchicalPlanner(TensorDictModuleBase):
         their planning)."""
         n = flat.shape[0]
         if len(self.episodes) != n:
-            self.episodes = [_Episode() for _ in range(n)]
+            self.episodes = [EpisodeState() for _ in range(n)]
         is_init = flat.get("is_init").reshape(n).cpu().numpy() if "is_init" in flat.keys() else np.zeros(n, bool)
         actions = []
         for b in worlds:
             if is_init[b]:
-                self.episodes[b] = _Episode()
+                self.episodes[b] = EpisodeState()
             actions.append(self.act(self.episodes[b], flat[b]))
         return np.stack(actions) if actions else np.zeros((0, C.ACTION_DIM))
 
-    def act(self, ep: _Episode, obs: TensorDictBase) -> np.ndarray:
+    def act(self, ep: EpisodeState, obs: TensorDictBase) -> np.ndarray:
         """The next action of one world (observation without batch dims)."""
         pose = obs.get("gripper_pose").cpu().numpy().astype(float)
         ep.step += 1
-        ep.last_kind = "search"  # unless the action comes from a queued plan (_pop)
-        if self.follow_tolerance is not None and ep.awaiting is not None and self._strayed(pose, ep.awaiting):
-            self._drop_plan(ep, bool(obs.get("gripper_closed").reshape(-1)[0]))
+        ep.last_kind = "search"  # unless the action comes from a queued plan (EpisodeState.pop)
+        if self.follow_tolerance is not None and ep.awaiting is not None and strayed(pose, ep.awaiting, self.follow_tolerance):
+            ep.drop_plan(bool(obs.get("gripper_closed").reshape(-1)[0]), self.replan_inside)
         ep.awaiting = None
         ep.known.observe(obs, pose, ep.step, plan_running=bool(ep.queue))
         if ep.queue:
-            return np.clip(self._pop(ep), -1.0, 1.0)
+            return np.clip(ep.pop(), -1.0, 1.0)
         t0 = time.perf_counter()
         for _ in range(8):  # stages that produce no action hand over to the next one
             a = self._decide(ep, obs, pose)
@@ -318,37 +290,8 @@ class HierarchicalPlanner(TensorDictModuleBase):
         ep.planning_seconds += time.perf_counter() - t0  # decisions and low-level planning
         return np.clip(a, -1.0, 1.0)
 
-    def _pop(self, ep: _Episode) -> np.ndarray:
-        """The next queued action; remembers the pose the simulator predicted after it."""
-        ep.awaiting = ep.expected.popleft() if ep.expected else None
-        ep.last_kind = ep.queue_kind or "search"
-        return ep.queue.popleft()
-
-    def _strayed(self, pose: np.ndarray, expected: np.ndarray) -> bool:
-        dist, angle = self.follow_tolerance
-        turn = abs((pose[2] - expected[2] + math.pi) % (2 * math.pi) - math.pi)
-        return math.hypot(pose[0] - expected[0], pose[1] - expected[1]) > dist or turn > angle
-
-    def _drop_plan(self, ep: _Episode, closed: bool) -> None:
-        """The world no longer follows the queued plan: drop it and go back to the stage that
-        plans it again (with the gripper closed, to the stage that plans with the object held)."""
-        kind = ep.queue_kind
-        ep.queue.clear()
-        ep.expected.clear()
-        ep.known.expect(None)
-        ep.replans += 1
-        if kind in ("reach", "extract"):
-            ep.stage = "retrieve_extract" if closed else "retrieve_reach"
-        elif kind == "rearrange_reach":
-            ep.stage = "rearrange_place" if closed else "rearrange_reach"
-        elif kind == "place":
-            ep.stage = "rearrange_place" if closed else "move_out"
-        elif kind == "move_out":
-            ep.stage = "decide" if self._plans_inside(ep) else "move_out"
-        logger.debug("the world left the %s plan at step %d: planning %s again", kind, ep.step, ep.stage)
-
     # ------------------------------------------------------------------ the high level
-    def _decide(self, ep: _Episode, obs: TensorDictBase, pose: np.ndarray) -> np.ndarray | None:
+    def _decide(self, ep: EpisodeState, obs: TensorDictBase, pose: np.ndarray) -> np.ndarray | None:
         """Advance the state machine by one stage; an action (or None: the next stage decides)."""
         if ep.stage == "move_out":
             ep.stage = "search"
@@ -360,7 +303,7 @@ class HierarchicalPlanner(TensorDictModuleBase):
             ep.expected.clear()
             ep.expected.extend(poses)
             ep.queue_kind = "move_out"
-            return self._pop(ep)
+            return ep.pop()
         if ep.stage == "search":
             if ep.sweep is None:  # a new Search
                 ends = [np.array([-self.sweep_x, self.search_y, 0.0]), np.array([self.sweep_x, self.search_y, 0.0])]
@@ -372,7 +315,7 @@ class HierarchicalPlanner(TensorDictModuleBase):
             if not ep.sweep_full and ep.known.target_in_view:
                 ep.sweep = []  # located: this Search is over
             elif is_inside_shelf(pose):  # Search starts outside the shelf
-                if self._plans_inside(ep):
+                if ep.plans_inside(self.replan_inside):
                     ep.sweep = None
                     ep.stage = "decide"
                 else:
@@ -432,12 +375,7 @@ class HierarchicalPlanner(TensorDictModuleBase):
             return self._queue(ep, plan, ids, next_stage="move_out")
         raise RuntimeError(f"unknown stage {ep.stage!r}")  # pragma: no cover
 
-    def _plans_inside(self, ep: _Episode) -> bool:
-        """With ``replan_inside``: whether "decide" has something to plan for (a target seen, or
-        an object to rearrange), so it need not back out to search first."""
-        return self.replan_inside and (ep.known.target_id() is not None or ep.known.knows_non_target())
-
-    def _fail(self, ep: _Episode, why: str | None = None) -> None:
+    def _fail(self, ep: EpisodeState, why: str | None = None) -> None:
         if why:
             logger.warning("%s; moving out and searching again", why)
         ep.failures += 1
@@ -445,7 +383,7 @@ class HierarchicalPlanner(TensorDictModuleBase):
         ep.stage = "move_out"
         return None
 
-    def _queue(self, ep: _Episode, plan: PlanResult | None, ids: list[int], next_stage: str) -> np.ndarray | None:
+    def _queue(self, ep: EpisodeState, plan: PlanResult | None, ids: list[int], next_stage: str) -> np.ndarray | None:
         if plan is None or not plan.success:
             return self._fail(ep)
         ep.queue.extend(plan.actions)
@@ -457,10 +395,10 @@ class HierarchicalPlanner(TensorDictModuleBase):
         ep.stage = next_stage
         if not ep.queue:
             return None
-        return self._pop(ep)
+        return ep.pop()
 
     # ------------------------------------------------------------------ low-level queries
-    def _budget_ok(self, ep: _Episode) -> bool:
+    def _budget_ok(self, ep: EpisodeState) -> bool:
         if ep.planning_seconds >= self.time_limit:
             if not ep.out_of_time:
                 logger.warning(
@@ -470,7 +408,7 @@ class HierarchicalPlanner(TensorDictModuleBase):
             return False
         return True
 
-    def _solve(self, ep: _Episode, world: ShelfWorld, goal: GoalSpec, grip: float, finish=None, t0=None, forbidden=None) -> PlanResult:
+    def _solve(self, ep: EpisodeState, world: ShelfWorld, goal: GoalSpec, grip: float, finish=None, t0=None, forbidden=None) -> PlanResult:
         t0 = time.perf_counter() if t0 is None else t0
         self._queries += 1
         seed = self.seed * 100_003 + self._queries
@@ -494,7 +432,7 @@ class HierarchicalPlanner(TensorDictModuleBase):
             logger.warning("%s plan not found within %.2f s (%s, %d propagations)", plan.name, seconds, plan.status, plan.propagations)
         return plan
 
-    def _query_world(self, ep: _Episode, state: RecreatedState, ids: list[int], tid: int | None, query: str):
+    def _query_world(self, ep: EpisodeState, state: RecreatedState, ids: list[int], tid: int | None, query: str):
         """(start time, world of the known state, index of object ``tid``) for a low-level query,
         or None when the time budget is spent or the object is not known."""
         if not self._budget_ok(ep):
@@ -504,7 +442,7 @@ class HierarchicalPlanner(TensorDictModuleBase):
             return None
         return time.perf_counter(), make_world(state), ids.index(tid)
 
-    def _plan_reach(self, ep: _Episode, state: RecreatedState, ids: list[int], tid: int | None) -> PlanResult | None:
+    def _plan_reach(self, ep: EpisodeState, state: RecreatedState, ids: list[int], tid: int | None) -> PlanResult | None:
         prepared = self._query_world(ep, state, ids, tid, "reach")
         if prepared is None:
             return None
@@ -521,7 +459,7 @@ class HierarchicalPlanner(TensorDictModuleBase):
         goal = HoldGoal(i, world.gripper_pose(), world.object_poses()[i], max_y=max_y, spot=spot, radius=self.place_radius)
         return self._solve(ep, world, goal, CLOSE, finish=finish, t0=t0, forbidden=self._hiding(ep, state))
 
-    def _hiding(self, ep: _Episode, state: RecreatedState) -> HidingRegion | None:
+    def _hiding(self, ep: EpisodeState, state: RecreatedState) -> HidingRegion | None:
         """Where the target may hide (None once it is located); cached per decision step."""
         if state.target_detected or not self.avoid_hiding:
             return None

@@ -74,7 +74,7 @@ def is_inside_shelf(pose) -> bool:
 
 
 def between_fingers(gripper_pose, opening, vertices, object_poses, index, margin, palm_gap: float = 0.002) -> bool:
-    """The grasp rule (:func:`~occrl.envs.pymunk2d.world.grasp_candidate`) for one object, with margins,
+    """The grasp rule (:func:`~occrl.envs.pymunk2d.fingers.grasp_candidate`) for one object, with margins,
     and the object ``palm_gap`` clear of the palm (not being pushed)."""
     h = opening / 2.0
     inv = inverse_pose(gripper_pose)

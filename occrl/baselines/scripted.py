@@ -29,7 +29,7 @@ from tensordict.nn import TensorDictModuleBase
 from occrl.envs import world_constants as C
 from occrl.envs.geometry import convex_hull, polygons_overlap, transform_points, transform_polygons
 from occrl.envs.shelf_geometry import SHELF_WALLS, gripper_polygons
-from occrl.envs.pymunk2d.world import grasp_candidate
+from occrl.envs.pymunk2d.fingers import grasp_candidate
 
 __all__ = ["ScriptedRetriever", "plan_grasp", "grasp_candidates", "way_out", "path_clear", "move_action", "fingertips_inside", "FIT_WIDTH"]
 

@@ -31,7 +31,8 @@ import torch
 
 from occrl.envs import world_constants as C
 from occrl.envs.geometry import ragged_positions, transform_polygons
-from occrl.envs.render import DEFAULT_CANVAS, Canvas, labels_to_pixels, render_labels_at_pixels, render_labels_batch
+from occrl.envs.palette import labels_to_pixels
+from occrl.envs.render import DEFAULT_CANVAS, Canvas, render_labels_at_pixels, render_labels_batch
 from occrl.envs.robot_frame import DEFAULT_FORWARD_OFFSET, DEFAULT_SIZE, DEFAULT_WINDOW, robot_centric_points, robot_centric_xy
 from occrl.envs.shelf_geometry import SHELF_WALLS
 from occrl.envs.visibility import detect, visible_fractions_batch

@@ -18,7 +18,8 @@ from occrl.envs import world_constants as C
 from occrl.envs.geometry import point_in_convex_polygon, transform_polygons
 from occrl.envs.observation import crop_to_pixels, render_shelf_labels
 from occrl.envs.perception import detected_polygons
-from occrl.envs.render import DEFAULT_CANVAS, LABELS, Canvas
+from occrl.envs.palette import LABELS
+from occrl.envs.render import DEFAULT_CANVAS, Canvas
 from occrl.envs.robot_frame import DEFAULT_FORWARD_OFFSET, DEFAULT_SIZE, DEFAULT_WINDOW, robot_centric_pixels, robot_centric_points
 
 __all__ = ["OcclusionRender", "RobotCentricCrop", "HeatmapTarget"]
@@ -69,7 +70,7 @@ class OcclusionRender(_ObservationWriter):
 
     Reads the gripper pose and opening and the detected objects (``("objects", ...)``), never
     ``"privileged"`` entries; writes ``out_key`` (default ``"shelf_labels"``), an (H, W) uint8
-    map of the classes in :data:`occrl.envs.render.LABELS`.
+    map of the classes in :data:`occrl.envs.palette.LABELS`.
 
     Examples:
         >>> from torchrl.envs import TransformedEnv

@@ -15,7 +15,8 @@ from PIL import Image, ImageDraw
 from tensordict import TensorDictBase
 
 from occrl.envs.geometry import transform_polygons
-from occrl.envs.render import SHELF_VIEW, labels_to_rgb, render_true_scene
+from occrl.envs.palette import labels_to_rgb
+from occrl.envs.render import SHELF_VIEW, render_true_scene
 
 __all__ = ["episode_frames", "frame", "decision_panels", "save_gif", "save_film_strip"]
 

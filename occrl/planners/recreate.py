@@ -20,7 +20,8 @@ from occrl.envs.geometry import edge_normals, pad_polygons, transform_points
 from occrl.envs.pymunk2d.physics_settings import DEFAULT_PHYSICS
 from occrl.envs.scene import Scene, SceneObject
 from occrl.envs.shelf_geometry import gripper_polygons
-from occrl.envs.pymunk2d.world import ShelfWorld, grasp_candidate
+from occrl.envs.pymunk2d.fingers import grasp_candidate
+from occrl.envs.pymunk2d.world import ShelfWorld
 
 __all__ = ["RecreatedState", "recreate", "with_target", "make_world", "WorldPool"]
 

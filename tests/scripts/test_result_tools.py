@@ -44,7 +44,7 @@ def test_perception_identity_passes_on_itself_and_fails_on_a_changed_render(tmp_
     assert out.startswith("identical:")
     changed = tmp_path / "checkout"
     shutil.copytree(ROOT / "occrl", changed / "occrl", ignore=shutil.ignore_patterns("__pycache__"))
-    render = changed / "occrl" / "envs" / "render.py"
+    render = changed / "occrl" / "envs" / "palette.py"
     source = render.read_text()
     assert "[128, 128, 128],  # observable: grey" in source
     render.write_text(source.replace("[128, 128, 128],  # observable: grey", "[127, 128, 128],  # observable: grey"))

@@ -38,16 +38,20 @@ import pymunk.batch
 from pymunk._chipmunk_cffi import lib as _cp
 
 from occrl.envs import world_constants as C
-from occrl.envs.geometry import convex_hull, pad_polygons, polygon_area, polygon_centroid, transform_points, transform_polygons
+from occrl.envs.geometry import convex_hull, polygon_area, polygon_centroid, transform_points, transform_polygons
 from occrl.envs.task import StepOutcome, task_outcome
-from occrl.envs.shelf_geometry import SHELF_WALLS, beyond_walls, gripper_polygons, inverse_pose, wall_polygons
+from occrl.envs.shelf_geometry import beyond_walls, gripper_polygons, wall_polygons
 from occrl.envs.pymunk2d import contact_list, joint_reset
-from occrl.envs.pymunk2d.fingers import closing_stop, grasp_candidate, opening_until_contact
+from occrl.envs.pymunk2d.body_properties import gripper_moment, mass_and_moment, padded_and_radii
+from occrl.envs.pymunk2d.finger_actuation import FingerActuation
+from occrl.envs.pymunk2d.joints import drive_and_floor_joints, grasp_joints
 from occrl.envs.pymunk2d.physics_settings import DEFAULT_PHYSICS, INVALID_PENETRATION, PhysicsSettings
 from occrl.envs.scene import Scene
 
 # the shelf geometry (gripper_polygons, wall_polygons, inverse_pose, beyond_walls) lives in
-# occrl.envs.shelf_geometry, the fingers' (grasp_candidate and where fingers stop) in occrl.envs.pymunk2d.fingers
+# occrl.envs.shelf_geometry, the fingers' (grasp_candidate and where fingers stop) in
+# occrl.envs.pymunk2d.fingers and their actuation in occrl.envs.pymunk2d.finger_actuation, the
+# joints in occrl.envs.pymunk2d.joints, masses and cached layouts in occrl.envs.pymunk2d.body_properties
 __all__ = ["ShelfWorld"]
 
 logger = logging.getLogger(__name__)
@@ -58,73 +62,11 @@ _GRIPPER_GROUP = 1  # shapes in this group never collide with each other (grippe
 _IN_GRIPPER_GROUP = pymunk.ShapeFilter(group=_GRIPPER_GROUP)
 _NO_GROUP = pymunk.ShapeFilter()
 _IDENTITY = pymunk.Transform.identity()
-# fraction of a grasp joint's error left after one second (1 - 1e-4 corrected in 0.5 s)
-GRASP_ERROR_BIAS = 1e-8
 # contact depths of every touching pair after a step (arbiters no longer touching read 0)
 _CONTACT_DEPTHS = pymunk.batch.ArbiterFields.DISTANCE_1 | pymunk.batch.ArbiterFields.DISTANCE_2
 
 
-def _limited(constraint: pymunk.Constraint, max_bias: float, max_force: float) -> pymunk.Constraint:
-    """Set a joint's limits through the C API (the attribute setters are slow in a hot loop)."""
-    _cp.cpConstraintSetMaxBias(constraint._constraint, max_bias)
-    _cp.cpConstraintSetMaxForce(constraint._constraint, max_force)
-    return constraint
-
-
-_GRIPPER_MOMENTS: dict[float, float] = {}
-
-
-def _gripper_moment(mass: float) -> float:
-    """The gripper's moment of inertia at this mass (its parts' polygons, mass spread by area);
-    the same for every world, so computed once per mass."""
-    if mass not in _GRIPPER_MOMENTS:
-        polys = gripper_polygons(C.GRIPPER_STROKE)
-        total_area = sum(polygon_area(p) for p in polys)
-        _GRIPPER_MOMENTS[mass] = sum(pymunk.moment_for_poly(mass * polygon_area(p) / total_area, p.tolist()) for p in polys)
-    return _GRIPPER_MOMENTS[mass]
-
-
-_MASS_CACHE: dict[tuple, tuple[float, float]] = {}
-_MASS_CACHE_SIZE = 4096  # polygons remembered (a planner's recreated objects recur at every decision)
-
-
-def _mass_and_moment(vertices: np.ndarray, density: float) -> tuple[float, float]:
-    """A polygon's mass (``density`` x area) and its moment about its origin, as
-    ``pymunk.moment_for_poly`` gives it; each polygon's computed once and remembered (the same
-    values: the key holds the vertices' bytes and layout, on which the arithmetic depends)."""
-    key = (vertices.tobytes(), vertices.shape, vertices.strides, vertices.dtype.str, density)
-    found = _MASS_CACHE.get(key)
-    if found is None:
-        if len(_MASS_CACHE) >= _MASS_CACHE_SIZE:  # (noisy execution worlds make new polygons every action)
-            _MASS_CACHE.clear()
-        mass = density * polygon_area(vertices)
-        found = _MASS_CACHE[key] = (mass, pymunk.moment_for_poly(mass, vertices.tolist()))
-    return found
-
-
-_FINGER_VERTICES: dict[tuple[float, float], tuple[list, list]] = {}  # the fingers' vertex lists by opening (read only)
-_PADDED_CACHE: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
-_PADDED_CACHE_SIZE = 4096  # object sets remembered (a planner's recreated scenes recur at every decision)
-
-
-def _padded_and_radii(vertices: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """The objects' polygons padded to MAX_VERTICES by repeating the first vertex, (n, V, 2), and
-    each one's largest vertex distance from its centroid, (n,) (np.linalg.norm's sqrt(x * x +
-    y * y) over the padded vertices: the repeated first vertex changes no maximum); both read
-    only, remembered per object set (the key holds each polygon's shape and bytes)."""
-    key = tuple((v.shape, v.tobytes()) for v in vertices)
-    found = _PADDED_CACHE.get(key)
-    if found is None:
-        if len(_PADDED_CACHE) >= _PADDED_CACHE_SIZE:
-            _PADDED_CACHE.clear()
-        pv = pad_polygons(vertices, C.MAX_VERTICES)
-        radius = np.sqrt(pv[..., 0] * pv[..., 0] + pv[..., 1] * pv[..., 1]).max(-1, initial=0.0)
-        pv.flags.writeable = radius.flags.writeable = False
-        found = _PADDED_CACHE[key] = (pv, radius)
-    return found
-
-
-class ShelfWorld:
+class ShelfWorld(FingerActuation):
     """A pymunk shelf world built from a :class:`~occrl.envs.Scene`.
 
     Args:
@@ -201,7 +143,7 @@ class ShelfWorld:
         self.nominal_vertices = [np.asarray(o.vertices, dtype=float) for o in scene.objects]
         # the same polygons padded to MAX_VERTICES by repeating the first vertex, for vectorised
         # use, and each object's radius (read only: shared by the worlds of the same shapes)
-        self.padded_vertices, self.object_radius = _padded_and_radii(self.nominal_vertices)
+        self.padded_vertices, self.object_radius = padded_and_radii(self.nominal_vertices)
         self.num_vertices = np.array([len(v) for v in self.nominal_vertices], dtype=np.int64)
         self.opening = C.GRIPPER_STROKE
         self.closed = False
@@ -236,7 +178,7 @@ class ShelfWorld:
         # the opening the finger shapes were last set to by _set_opening (None: as built, whose
         # vertices pymunk.Poly ordered as their convex hull, and _set_opening does not)
         self._finger_opening: tuple[float, float] | None = None
-        self.gripper.moment = _gripper_moment(mass)
+        self.gripper.moment = gripper_moment(mass)
         self.gripper_shapes = []
         for poly in polys:
             s = pymunk.Poly(self.gripper, poly.tolist())
@@ -271,7 +213,7 @@ class ShelfWorld:
 
     def _set_physics(self, i: int, vertices: np.ndarray, density: float, friction: float) -> None:
         body, shape = self.bodies[i], self.shapes[i]
-        mass, moment = _mass_and_moment(vertices, density)
+        mass, moment = mass_and_moment(vertices, density)
         # Chipmunk's setters called directly (what pymunk's mass, moment and friction properties call)
         _cp.cpBodySetMass(body._body, mass)
         _cp.cpBodySetMoment(body._body, moment)
@@ -334,15 +276,7 @@ class ShelfWorld:
             anchor = self.gripper.world_to_local(body.position)
             if ps.finger_contact:  # the closed fingers draw the object to the centre between them
                 anchor = (anchor.x + self._centring_shift(self.held), anchor.y)
-            weld = pymunk.PivotJoint(self.gripper, body, anchor, (0, 0))
-            lock = pymunk.GearJoint(self.gripper, body, body.angle - self.gripper.angle, 1.0)
-            if ps.finger_contact:  # centre within the action (pymunk's default corrects 96 % in 0.5 s)
-                _cp.cpConstraintSetErrorBias(weld._constraint, GRASP_ERROR_BIAS)
-                _cp.cpConstraintSetErrorBias(lock._constraint, GRASP_ERROR_BIAS)
-            if ps.grasp_max_force != math.inf:
-                _cp.cpConstraintSetMaxForce(weld._constraint, ps.grasp_max_force)
-                _cp.cpConstraintSetMaxForce(lock._constraint, ps.grasp_max_force * C.FINGER_LENGTH)
-            cons += [weld, lock]
+            cons += grasp_joints(self.gripper, body, anchor, ps)
         if self._filtered != self.held:  # the held object does not collide with the gripper
             if self._filtered is not None:
                 self.shapes[self._filtered].filter = _NO_GROUP
@@ -369,17 +303,10 @@ class ShelfWorld:
 
     def _drive_and_floor_joints(self) -> list[pymunk.Constraint]:
         """New joints: the gripper's drive (pivot, gear) and each object's floor friction (pivot,
-        gear), in this order."""
-        static = self.space.static_body
-        ps = self.physics
-        drive = _limited(pymunk.PivotJoint(self.control, self.gripper, (0, 0), (0, 0)), ps.gripper_max_speed, ps.gripper_max_force)
-        turn = _limited(pymunk.GearJoint(self.control, self.gripper, 0.0, 1.0), 10 * ps.gripper_max_speed, ps.gripper_max_torque)
-        cons = [drive, turn]
-        for i, body in enumerate(self.bodies):
-            force = float(self.floor_force[i])
-            cons.append(_limited(pymunk.PivotJoint(static, body, (0, 0), (0, 0)), 0.0, force))
-            cons.append(_limited(pymunk.GearJoint(static, body, 0.0, 1.0), 0.0, force * float(self.floor_arm[i])))
-        return cons
+        gear), in this order (:func:`~occrl.envs.pymunk2d.joints.drive_and_floor_joints`)."""
+        return drive_and_floor_joints(
+            self.space.static_body, self.control, self.gripper, self.bodies, self.floor_force, self.floor_arm, self.physics
+        )
 
     # ------------------------------------------------------------------ state
     def gripper_pose(self) -> np.ndarray:
@@ -563,25 +490,6 @@ class ShelfWorld:
             self._set_physics(i, noisy, density, friction)
             self._nominal_shapes[i] = None
 
-    def _actuate_fingers(self, close: bool) -> None:
-        if close and not self.closed:
-            self.closed = True
-            self._close_fingers()
-        elif not close and self.closed:
-            self.closed = False
-            self.held = None
-            if self.physics.finger_contact:
-                self._open_fingers()
-            else:
-                self._set_opening(C.GRIPPER_STROKE)
-        elif not close and self.physics.finger_contact and self.opening < C.GRIPPER_STROKE:
-            self._open_fingers()  # fingers stopped by contact earlier keep opening
-
-    def _open_fingers(self) -> None:
-        """Open towards the full stroke, symmetrically; the fingers stop where one of them first
-        touches an object or a wall (the simulated shapes), as they stop at contact when closing."""
-        self._set_opening(opening_until_contact(self.gripper_pose(), self.opening, [*self.simulated_polygons(), *SHELF_WALLS]))
-
     def simulated_polygons(self) -> list[np.ndarray]:
         """Each object's shape as simulated (with this action's noise) at its current pose."""
         out = []
@@ -589,41 +497,3 @@ class ShelfWorld:
             local = np.array([tuple(v) for v in shape.get_vertices()])
             out.append(transform_points(local, (body.position.x, body.position.y, body.angle)))
         return out
-
-    def _centring_shift(self, i: int) -> float:
-        """Sideways offset (gripper frame) that centres object ``i`` between the fingers."""
-        local = transform_points(self.object_world_polygons()[i], inverse_pose(self.gripper_pose()))
-        return -(local[:, 0].min() + local[:, 0].max()) / 2.0
-
-    def _close_fingers(self) -> None:
-        """Close until contact; grasp the object between the fingers if it straddles the axis."""
-        gpose = self.gripper_pose()
-        i, touching = grasp_candidate(gpose, self.opening, self.object_world_polygons())
-        if i is not None:
-            local = touching[i]
-            xmin, xmax = local[:, 0].min(), local[:, 0].max()
-            if not self.physics.finger_contact:  # occrl 0.1.0: the object jumps to the centre
-                shift = -(xmin + xmax) / 2.0
-                c, s = math.cos(gpose[2]), math.sin(gpose[2])
-                body = self.bodies[i]
-                body.position = (body.position.x + c * shift, body.position.y + s * shift)
-            self._set_opening(xmax - xmin)
-            self.held = i
-            return
-        self._set_opening(closing_stop(self.opening, touching))  # at the first contact, or closed on nothing
-
-    def _set_opening(self, opening: float) -> None:
-        self.opening = float(opening)
-        # (the sign too: -0.0 gives fingers of other zero signs than 0.0)
-        key = (self.opening, math.copysign(1.0, self.opening))
-        if key == self._finger_opening:  # the fingers are there already (as set below)
-            return
-        fingers = _FINGER_VERTICES.get(key)
-        if fingers is None:
-            if len(_FINGER_VERTICES) >= 4096:
-                _FINGER_VERTICES.clear()
-            polys = gripper_polygons(self.opening)
-            fingers = _FINGER_VERTICES[key] = (polys[1].tolist(), polys[2].tolist())
-        self.gripper_shapes[1].unsafe_set_vertices(fingers[0])
-        self.gripper_shapes[2].unsafe_set_vertices(fingers[1])
-        self._finger_opening = key
