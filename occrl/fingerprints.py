@@ -23,9 +23,18 @@ to pass.
 
 from __future__ import annotations
 
-import numpy as np
+import inspect
+import platform
 
+import numpy as np
+import torch
+
+from occrl.baselines.hierarchical import HierarchicalPlanner
 from occrl.envs import world_constants as C
+from occrl.envs.episodes import episode_end
+from occrl.eval.methods import Method, make_method
+from occrl.eval.runner import rollout_tasks
+from occrl.training.presets import TRAIN_PRESETS
 
 __all__ = [
     "EPISODES",
@@ -74,10 +83,6 @@ ACTION_TOLERANCE = 1e-4
 def hierarchical_for_fingerprints(seed: int = 0):
     """The hierarchical planner with its defaults except every timer stretched by
     :data:`HIERARCHICAL_TIMER_STRETCH`: its seeded episodes then do not depend on the machine's speed."""
-    import inspect
-
-    from occrl.baselines.hierarchical import HierarchicalPlanner
-
     defaults = inspect.signature(HierarchicalPlanner).parameters
     timers = {name: defaults[name].default * HIERARCHICAL_TIMER_STRETCH for name in ("plan_seconds", "restart_seconds", "time_limit")}
     return HierarchicalPlanner(seed=seed, **timers)
@@ -93,13 +98,7 @@ def episode_fingerprint(method_name: str, stage: int, seed: int) -> dict:
         >>> sorted(fp), fp["success"], len(fp["actions"]) == fp["steps"]
         (['actions', 'dropped', 'steps', 'success'], True, True)
     """
-    from occrl.eval.methods import make_method
-    from occrl.envs.episodes import episode_end
-    from occrl.eval.runner import rollout_tasks
-
     if method_name == "hierarchical":
-        from occrl.eval.methods import Method
-
         method = Method(method_name, hierarchical_for_fingerprints())
     else:
         method = make_method(method_name)
@@ -176,10 +175,6 @@ def machine_description() -> str:
     """The CPU's model name (Linux's /proc/cpuinfo, else ``platform.processor()``) and the torch
     kernels it runs (``torch.backends.cpu.get_cpu_capability()``): what an alternate fingerprint
     records of the machine that made it."""
-    import platform
-
-    import torch
-
     model = platform.processor() or platform.machine()
     try:
         with open("/proc/cpuinfo") as f:
@@ -191,8 +186,6 @@ def machine_description() -> str:
 
 def preset_fingerprints() -> dict:
     """Every training preset's settings."""
-    from occrl.training.presets import TRAIN_PRESETS
-
     return {name: cfg.to_dict() for name, cfg in sorted(TRAIN_PRESETS.items())}
 
 

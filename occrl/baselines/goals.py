@@ -17,6 +17,7 @@ from occrl.envs.shelf_geometry import SHELF_WALLS, gripper_polygons, inverse_pos
 from occrl.envs.pymunk2d.world import ShelfWorld
 
 from occrl.baselines.motion import between_fingers
+from occrl.baselines.scripted import plan_grasp
 
 __all__ = ["SimEntry", "GoalSpec", "ReachGoal", "HoldGoal", "grasp_poses", "compose_pose", "MAX_GRASP_ANGLE"]
 
@@ -152,8 +153,6 @@ def grasp_poses(world: ShelfWorld, index: int, prefer_angle: float = 0.0, limit:
         >>> grasp_candidate(poses[0], C.GRIPPER_STROKE, world.object_world_polygons())[0]  # closing there holds it
         0
     """
-    from occrl.baselines.scripted import plan_grasp
-
     poses = world.object_poses()
     polys = world.object_world_polygons()
     target = polys[index]

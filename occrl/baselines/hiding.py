@@ -9,6 +9,7 @@ import numpy as np
 from occrl.envs import world_constants as C
 from occrl.envs.geometry import point_in_convex_polygon, polygons_overlap, transform_points
 from occrl.envs.shelf_geometry import SHELF_WALLS, gripper_polygons
+from occrl.envs.visibility import visible_fractions
 
 __all__ = ["HidingRegion", "probe_points"]
 
@@ -50,8 +51,6 @@ class HidingRegion:
         orientations=(0.0, math.pi / 4),
         shrink: float = 0.002,
     ) -> None:
-        from occrl.envs.visibility import visible_fractions
-
         xs = np.arange(-C.SHELF_HALF_WIDTH, C.SHELF_HALF_WIDTH + 1e-9, self.CELL)
         ys = np.arange(0.0, C.SHELF_DEPTH + 1e-9, self.CELL)
         gx, gy = np.meshgrid(xs, ys, indexing="ij")

@@ -71,7 +71,7 @@ from occrl.planners.recreate import RecreatedState, make_world
 from occrl.baselines.hiding import HidingRegion
 from occrl.baselines.hierarchical_state import EpisodeState, strayed
 from occrl.baselines.goals import GoalSpec, HoldGoal, ReachGoal, grasp_poses
-from occrl.baselines.kinodynamic import PlanResult, SimControlProblem
+from occrl.baselines.kinodynamic import PlanResult, SimControlProblem, oc
 from occrl.baselines.primitives import closest_object, free_spot, move_out
 from occrl.baselines.motion import (
     CLOSE,
@@ -165,8 +165,6 @@ class HierarchicalPlanner(TensorDictModuleBase):
         replan_inside: bool = False,
     ) -> None:
         super().__init__()
-        from occrl.baselines.kinodynamic import oc
-
         if oc is None:
             raise ImportError('the hierarchical planner needs OMPL 2.x: pip install -e ".[ompl]"')
         if planner not in ("rrt", "kpiece"):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 from typing import Sequence
 
 from torchrl.envs import Compose, InitTracker, StepCounter, TransformedEnv
@@ -92,8 +93,6 @@ def make_env(
     if not math.isfinite(forward_offset):
         raise ValueError(f"forward_offset must be finite (metres), got {forward_offset!r}")
     if "backend" in env_kwargs:
-        import warnings
-
         warnings.warn("make_env(backend=...) is now make_env(world=...)", DeprecationWarning, stacklevel=2)
         world = env_kwargs.pop("backend")
     if world == "pymunk":

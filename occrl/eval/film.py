@@ -10,6 +10,7 @@ import logging
 from pathlib import Path
 from typing import Sequence
 
+import imageio.v2 as imageio
 import numpy as np
 from PIL import Image, ImageDraw
 from tensordict import TensorDictBase
@@ -224,8 +225,6 @@ def save_gif(frames: Sequence[np.ndarray], path: str | Path, fps: float = 4.0) -
         >>> Image.open(path).n_frames
         4
     """
-    import imageio.v2 as imageio
-
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     imageio.mimsave(path, list(frames), duration=1.0 / fps, loop=0)

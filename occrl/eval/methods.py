@@ -3,6 +3,7 @@ transforms it needs (e.g. the LSTM's recurrent-state primer)."""
 
 from __future__ import annotations
 
+import hashlib
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -10,9 +11,15 @@ from typing import Sequence
 
 from torchrl.envs.utils import ExplorationType
 
+from occrl.baselines.clearing import ClearingRetriever
+from occrl.baselines.policies import NetPolicy
+from occrl.baselines.scripted import ScriptedRetriever
 from occrl.envs.episodes import EpisodeResult, run_episodes
 from occrl.envs.robot_frame import DEFAULT_SIZE
 from occrl.envs.scene import Scene
+from occrl.modules.weights import load_weights
+from occrl.planners import HybridPlanner
+from occrl.pretrained import PRETRAINED_DIR, PRETRAINED_FILES, load_pretrained, network_name, weights_file
 
 __all__ = [
     "Method",
@@ -136,9 +143,6 @@ class Method:
 
 
 def _net(name: str, weights: str | Path | None):
-    from occrl.pretrained import load_pretrained
-    from occrl.modules.weights import load_weights
-
     return load_weights(weights) if weights else load_pretrained(name)
 
 
@@ -169,10 +173,6 @@ def method_network(name: str, weights: str | Path | None = None) -> tuple[str | 
         >>> method_network("scripted")
         (None, None)
     """
-    import hashlib
-
-    from occrl.pretrained import PRETRAINED_DIR, PRETRAINED_FILES, network_name, weights_file
-
     default = default_network(name)
     if default is None:
         return None, None
@@ -185,8 +185,6 @@ def method_network(name: str, weights: str | Path | None = None) -> tuple[str | 
 def _network_record(default: str, weights: str | Path | None) -> str:
     """What a result records as its network: a shipped network's own name (a default name such
     as "occnet" resolved to the network it stands for in this version) or the weights file."""
-    from occrl.pretrained import network_name
-
     return network_name(str(weights or default))
 
 
@@ -241,8 +239,6 @@ def make_method(
             remembered_detections=net.config.remembered_detections,
         )
     if hybrid is not None:
-        from occrl.planners import HybridPlanner
-
         m, h, limited = hybrid
         net = _net("occnet", weights)
         return Method(
@@ -258,18 +254,12 @@ def make_method(
 
         return Method(name, HierarchicalPlanner(seed=seed))
     if name == "scripted":
-        from occrl.baselines import ScriptedRetriever
-
         return Method(name, ScriptedRetriever())
     if name == "clearing":
-        from occrl.baselines.clearing import ClearingRetriever
-
         return Method(name, ClearingRetriever())
     if name in ("greedy", "stochastic", "stochastic-gen"):
         net_name = "occnet" if name == "stochastic-gen" else "occnet-noheatmap"
         net = _net(net_name, weights)
-        from occrl.baselines import NetPolicy
-
         policy = NetPolicy(net, stochastic=name != "greedy", seed=seed)
         return Method(
             name,

@@ -9,6 +9,9 @@ from __future__ import annotations
 
 import logging
 import math
+import multiprocessing as mp
+import tempfile
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Sequence
 
@@ -16,9 +19,12 @@ import numpy as np
 import torch
 from tensordict import TensorDictBase
 from torchrl.envs.utils import set_exploration_type
+from tqdm import tqdm
 
+from occrl.distributed import WorkerDiedError, is_worker_death, require_ray, start_ray
 from occrl.envs import world_constants as C
 from occrl.envs.episodes import EpisodeResult, check_replicate, run_episodes, seeded_task_env, task_scenes  # noqa: F401 (re-exported)
+from occrl.eval.methods import make_method
 
 # EpisodeResult, run_episodes, task_scenes, seeded_task_env live in occrl.envs.episodes (importable here too)
 __all__ = ["rollout_tasks", "run_tasks", "summarize", "wilson_interval", "mcnemar_p", "exclusive_wins", "EVAL_SEED_BASE"]
@@ -163,8 +169,6 @@ _WORKER: dict = {}
 
 def _init_worker(method: str, weights, threads: int, settings: dict) -> None:
     """Make this process's method; ``settings`` are :func:`~occrl.eval.methods.make_method`'s planner settings."""
-    from occrl.eval.methods import make_method
-
     torch.set_num_threads(threads)
     _WORKER["method"] = make_method(method, weights, **settings)
 
@@ -187,8 +191,6 @@ def _run_tasks_ray(
 ) -> list:
     """Chunks on ``workers`` Ray actors (one CPU each); a chunk whose actor died runs again on a new
     actor (chunks are seeded by their tasks, so the repeat gives the same results)."""
-    from occrl.distributed import WorkerDiedError, is_worker_death, require_ray, start_ray
-
     ray = require_ray("occrl eval --backend ray")
     start_ray(address, num_cpus=workers)
     weights_blob = Path(weights).read_bytes() if weights else None  # cluster nodes need not share a disk
@@ -198,8 +200,6 @@ def _run_tasks_ray(
         def __init__(self) -> None:
             path = None
             if weights_blob is not None:
-                import tempfile
-
                 path = Path(tempfile.mkdtemp()) / "weights.pt"
                 path.write_bytes(weights_blob)
             _init_worker(method, path, 1, settings)
@@ -276,8 +276,6 @@ def run_tasks(
         >>> [r.seed for r in results], summarize(results)["success_rate"]
         ([10000000, 10000001], 1.0)
     """
-    from tqdm import tqdm
-
     if backend not in ("local", "ray"):
         raise ValueError(f"backend must be 'local' or 'ray', got {backend!r}")
     check_replicate(replicate)
@@ -295,9 +293,6 @@ def run_tasks(
             results[k] = _run_chunk(job)
             bar.update(len(job[1]))
     else:
-        import multiprocessing as mp
-        from concurrent.futures import ProcessPoolExecutor, as_completed
-
         with ProcessPoolExecutor(
             workers,
             mp_context=mp.get_context("spawn"),

@@ -23,9 +23,16 @@ from pathlib import Path
 from typing import Sequence
 
 import numpy as np
+import torch
+from matplotlib.figure import Figure  # no pyplot: leaves the caller's backend (e.g. a notebook's) alone
+from torchrl.envs.utils import set_exploration_type
+from tqdm import tqdm
 
 from occrl.atomic_files import write_text_atomic
-from occrl.envs.episodes import EPISODE_TIMING, EpisodeResult, task_object_count
+from occrl.envs import world_constants as C
+from occrl.envs.episodes import EPISODE_TIMING, EpisodeResult, episode_end, seeded_task_env, task_object_count, task_scenes
+from occrl.eval.film import episode_frames, save_film_strip
+from occrl.eval.methods import is_planner, make_method, method_network
 from occrl.eval.runner import EVAL_SEED_BASE, run_tasks, summarize
 
 __all__ = [
@@ -120,12 +127,8 @@ def run_sweep(
         >>> sorted(os.listdir(out)), os.listdir(out / "points")
         (['points', 'results.csv', 'results.json', 'sweep.png'], ['scripted__clutter__1.json'])
     """
-    from occrl.eval.methods import is_planner, method_network
-
     if tasks < 1 or (chunk is not None and chunk < 1):
         raise ValueError(f"tasks and chunk must be >= 1, got tasks={tasks}, chunk={chunk}")
-    from tqdm import tqdm
-
     out = Path(out)
     (out / "points").mkdir(parents=True, exist_ok=True)
     chunk = chunk or tasks
@@ -333,8 +336,6 @@ def plot_sweep(out: str | Path) -> Path:
         >>> path.name, path.stat().st_size > 0
         ('sweep.png', True)
     """
-    from matplotlib.figure import Figure  # no pyplot: leaves the caller's backend (e.g. a notebook's) alone
-
     out = Path(out)
     rows = summarize_sweep(out)
     fig = Figure(figsize=(13, 7))
@@ -379,14 +380,6 @@ def sweep_films(out: str | Path, method: str, solved: int = 3, failed: int = 1, 
         >>> [p.name for p in sweep_films(out, "scripted", solved=1, failed=0)]
         ['scripted__clutter__1__seed10000000__solved.png']
     """
-    import torch
-    from torchrl.envs.utils import set_exploration_type
-
-    from occrl.envs import world_constants as C
-    from occrl.eval.film import episode_frames, save_film_strip
-    from occrl.eval.methods import make_method
-    from occrl.envs.episodes import episode_end, seeded_task_env, task_scenes
-
     out = Path(out)
     points = sorted(sweep_points(out, method, "clutter"), key=lambda p: -p["value"])
     for point in points:

@@ -14,6 +14,8 @@ Both draw the policy's noise from the same tensor, so with the same seed they ch
 
 from __future__ import annotations
 
+import io
+import warnings
 from dataclasses import dataclass
 from typing import Sequence
 
@@ -172,9 +174,6 @@ def _onnx_session(net: OccNet):
         import onnxruntime as ort
     except ImportError:
         raise ImportError("the onnxruntime inference backend needs ONNX Runtime: pip install onnx onnxruntime") from None
-    import io
-    import warnings
-
     graph = StepGraph(net).eval()
     pixels = torch.zeros(2, 3, net.config.image_size, net.config.image_size)
     state = torch.zeros(net.lstm.lstm.num_layers, 2, net.lstm.lstm.hidden_size)
