@@ -2,8 +2,8 @@
 
 :class:`~occrl.baselines.clearing.ClearingRetriever` plans from the true state, so on the
 learner's own states its choices (which blocker, carried where) depend on objects the learner
-cannot see, and a network imitating it learns an average of its plans (docs/decisions.md,
-issue 16). :class:`ObservedClearingRetriever` makes the same decisions from the observation
+cannot see, and a network imitating it learns an average of its plans (docs/decisions.md).
+:class:`ObservedClearingRetriever` makes the same decisions from the observation
 history alone: every object detected so far in the episode where it was last seen (a detector's
 identity, the type id; stale memories dropped as the hierarchical planner drops them,
 :func:`~occrl.baselines.object_memory.current_objects`), and an object held between closed
