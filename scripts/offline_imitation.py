@@ -83,14 +83,9 @@ NOT_LABELS = (
     "promotion_eval_every",
     "promotion_eval_tasks",
     "imitation_buffer_iters",
-    # which tasks the episodes start from (a pool of start scenes, e.g. target-hidden tasks): the
-    # labels are the same teacher's decisions, on another mix of tasks
-    "start_scenes",
-    "start_scenes_share",
-    # where the teacher's demonstrations start and how its motion was disturbed (DART noise, the
-    # learner's roll-in): the labels are the same teacher's undisturbed decisions
+    # how the teacher's motion was disturbed (DART noise): the labels are the same teacher's
+    # undisturbed decisions
     "teacher_action_noise",
-    "teacher_roll_in",
 )
 
 

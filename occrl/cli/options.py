@@ -65,7 +65,6 @@ SETTING_TYPES = {
         for name in (
             "num_envs",
             "steps_per_env",
-            "task_copies",
             "workers",
             "epochs",
             "minibatch_envs",

@@ -10,7 +10,7 @@ collect identical batches (tested) and a run may resume under either.
 from __future__ import annotations
 
 import logging
-from functools import lru_cache, partial
+from functools import partial
 from typing import Callable
 
 import numpy as np
@@ -22,10 +22,9 @@ from torchrl.envs.utils import ExplorationType
 
 from occrl.envs import make_env
 from occrl.modules import OccNet
-from occrl.envs.scene_files import load_scenes
 from occrl.training.config import TrainConfig
 
-__all__ = ["TrainingCollector", "SeededCollector", "training_env", "start_scene_pool", "RAY_WORKER_MEMORY"]
+__all__ = ["TrainingCollector", "SeededCollector", "training_env", "RAY_WORKER_MEMORY"]
 
 logger = logging.getLogger(__name__)
 
@@ -45,34 +44,15 @@ class SeededCollector(Collector):
         return out
 
 
-@lru_cache(maxsize=2)
-def start_scene_pool(path: str) -> tuple[tuple, int | None]:
-    """The scenes of a start-scenes file (read once per process) and the stage its meta names."""
-    scenes, meta = load_scenes(path)
-    return tuple(scenes), meta.get("stage")
-
-
 def training_env(
     stage: int,
     noise: float,
     num_envs: int,
     seed: int,
     primer_net: OccNet,
-    start_scenes: str = "",
-    start_scenes_share: float = 0.5,
-    task_copies: int = 1,
 ) -> TransformedEnv:
     """The env a collector worker steps: ``num_envs`` worlds of ``stage`` with the network's
-    LSTM-state primer and image size; with ``start_scenes`` (a scenes file of this stage), a
-    share ``start_scenes_share`` of its episodes starting from them; each task in
-    ``task_copies`` consecutive worlds."""
-    pool = {}
-    if start_scenes:
-        scenes, pool_stage = start_scene_pool(start_scenes)
-        if pool_stage is None:
-            raise ValueError(f"{start_scenes}: the scenes file's meta names no 'stage' (scripts/start_scene_pool.py writes it)")
-        if pool_stage == stage:
-            pool = {"scene_pool": scenes, "scene_pool_share": start_scenes_share}
+    LSTM-state primer and image size."""
     env = make_env(
         batch_size=num_envs,
         stage=stage,
@@ -80,8 +60,6 @@ def training_env(
         seed=seed,
         size=primer_net.config.image_size,
         remembered_detections=primer_net.config.remembered_detections,
-        task_copies=task_copies,
-        **pool,
     )
     return env.append_transform(primer_net.make_primer())
 
@@ -125,10 +103,9 @@ class TrainingCollector:
         c = self.config
         policy = make_policy()
         self.policy = policy
-        scene_options = dict(start_scenes=c.start_scenes, start_scenes_share=c.start_scenes_share, task_copies=c.task_copies)
         if c.collector == "single":
             self.collector = Collector(
-                partial(training_env, stage, c.noise, c.num_envs, self.seed, self.acting_net, **scene_options),
+                partial(training_env, stage, c.noise, c.num_envs, self.seed, self.acting_net),
                 policy,
                 frames_per_batch=c.frames_per_batch,
                 total_frames=-1,
@@ -139,9 +116,7 @@ class TrainingCollector:
             per = c.num_envs // c.workers  # a whole number: TrainConfig.validate checks it
             # worker k steps envs seeded from seed + k in both: the same batches either way (tested)
             stages = self.worker_stages(stage)
-            factories = [
-                partial(training_env, stages[k], c.noise, per, self.seed + k, self.acting_net, **scene_options) for k in range(c.workers)
-            ]
+            factories = [partial(training_env, stages[k], c.noise, per, self.seed + k, self.acting_net) for k in range(c.workers)]
             if c.collector == "multi":
                 self.collector = MultiSyncCollector(
                     factories,

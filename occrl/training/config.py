@@ -5,13 +5,19 @@ The named presets built from it live in :mod:`occrl.training.presets`."""
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, fields
-from pathlib import Path
-
 import torch
 
 from occrl.envs import world_constants as C
 
-__all__ = ["TrainConfig", "SETTING_CHOICES", "training_device", "dataclass_field_docs"]
+__all__ = [
+    "TrainConfig",
+    "SETTING_CHOICES",
+    "REMOVED_SETTINGS",
+    "RemovedSetting",
+    "drop_removed_settings",
+    "training_device",
+    "dataclass_field_docs",
+]
 
 # The values a string setting accepts (TrainConfig.validate checks them; ``occrl train`` offers them).
 SETTING_CHOICES: dict[str, tuple[str, ...]] = {
@@ -19,14 +25,9 @@ SETTING_CHOICES: dict[str, tuple[str, ...]] = {
     "optimizer": ("rmsprop", "adam"),
     "imitation_teacher": ("scripted", "clearing", "clearing-observed", "hybrid", "hybrid-acting", "hierarchical", "self"),
     "label_episodes": ("all", "success"),
-    "success_weighting": ("episode", "task"),
     "promotion": ("learner", "hybrid"),
     "teacher_inference": ("torch", "onnxruntime"),
-    "retrieval_labels": ("planner", "scripted"),
-    "takeover_retriever": ("scripted", "clearing", "hierarchical"),
-    "takeover_at": ("first-sight", "start"),
     "teacher_search": ("learner", "hierarchical"),
-    "teacher_roots": ("own", "state", "target"),
 }
 
 
@@ -82,10 +83,6 @@ class TrainConfig:
     """Worlds collected in parallel (over all collector workers)."""
     steps_per_env: int = 50
     """Steps per world and iteration; every iteration starts all episodes afresh."""
-    task_copies: int = 1
-    """Worlds that run each training task: consecutive groups of this many worlds of a collector
-    worker start from the same scenes, each with its own physics noise and policy draws
-    (ShelfEnv's task_copies; beyond the paper). The worlds of a worker must be a multiple of it."""
     collector: str = "single"
     """TorchRL collector: "single" (one process), "multi" (MultiSyncCollector) or "ray" (RayCollector)."""
     workers: int = 2
@@ -99,9 +96,6 @@ class TrainConfig:
     """"rmsprop" (the paper) or "adam"."""
     lr: float = 5e-5
     """Learning rate."""
-    detail_lr: float = 0.0
-    """Learning rate of a ``"fine"`` network's detail branch (new weights next to trained ones when
-    the run starts from :func:`occrl.modules.with_finer_input`; beyond the paper); 0: ``lr``."""
     epochs: int = 4
     """PPO epochs over each collected batch."""
     minibatch_envs: int = 10
@@ -112,11 +106,6 @@ class TrainConfig:
     """PPO ratio clip."""
     critic_coeff: float = 0.5
     """c1: weight of the value loss."""
-    critic_to_trunk: bool = True
-    """Whether the value loss's gradient reaches the shared encoder and LSTM (the paper: all losses
-    train the trunk). False: the value head learns on the trunk's features detached, so a value
-    that fits badly cannot move the features the policy reads (beyond the paper; docs/decisions.md,
-    "Cloning only successes")."""
     entropy_coeff: float = 0.01
     """c2: weight of the entropy bonus."""
     heatmap_coeff: float = 1.0
@@ -157,13 +146,6 @@ class TrainConfig:
     frames of the episodes the teacher acted in (its own successful demonstrations; its labels on
     the learner's states are dropped). With "self" the cloned successes are a policy-gradient step
     on the success probability (beyond the paper: docs/decisions.md, "Cloning only successes")."""
-    success_weighting: str = "episode"
-    """With imitation_teacher "self": how the cloned successes weigh. "episode": every successful
-    episode alike (the gradient of the summed success probabilities). "task": each task runs in
-    task_copies (> 1) worlds and a successful episode weighs 1 / (the successes among its task's
-    copies), so every solved task weighs alike: the gradient of the summed log success
-    probabilities, which leans towards the tasks the policy rarely solves (beyond the paper:
-    docs/decisions.md, "Self-imitation weighted towards hard tasks")."""
     teacher_inference: str = "torch"
     """Network inference of the hybrid-planner teachers ("hybrid", "hybrid-acting"): "torch" or
     "onnxruntime" (pip install onnx onnxruntime; ~1.2x the labels per second, the same network to
@@ -175,49 +157,12 @@ class TrainConfig:
     learns from the episodes of a planner that does not change, and may itself lack the heat-map
     head (heatmap=False: the greedy / stochastic baselines' network trained on the same planner's
     episodes as the full network). "": the live network (expert iteration)."""
-    teacher_roots: str = "own"
-    """"hybrid-acting": where the acting planner's roots come from. "own": the paper's planner (its
-    heat-map's peaks over the recreated state). "state": one root, the true state, hidden objects
-    included; "target": the recreated state with the target at its true pose (both privileged:
-    occrl.baselines.oracle_planner.OracleRootsPlanner; beyond the paper). With
-    teacher_to_the_end the planner's choices are the best of its policy's own samples as far as
-    the true world tells: self-imitation with hindsight (docs/decisions.md)."""
-    teacher_to_the_end: bool = False
-    """"hybrid-acting": each roll-out of the acting planner runs to the episode's action limit and
-    is scored by its rewards, no value at a horizon (OracleRootsPlanner(to_the_end=True); about 10
-    times a plain planner's time; the planner's worlds one by one)."""
-    retrieval_labels: str = "planner"
-    """"hybrid-acting": who labels the steps at which the learner's observation shows the target:
-    the acting planner ("planner") or the privileged scripted retriever ("scripted": a direct
-    reach, grasp and pull of a target the learner can see; from the planner's hand-over states it
-    retrieves 72 % of the held-out stage-2 tasks against the planner's 58.5 %; as labels on the
-    planner's states it made the planner worse, docs/decisions.md)."""
     retrieval_takeover: float = 0.0
     """"hybrid-acting": the share of episodes (drawn per world and episode) in which a retriever
     (takeover_retriever; the privileged scripted one by default) acts instead of the planner from
     the first step whose observation shows the target (takeover_at) to the episode's end; its
     actions are then the labels, along its own trajectory (occrl.training.dagger.RetrievalTakeover).
     0: the planner acts throughout."""
-    takeover_retriever: str = "scripted"
-    """Who takes over with retrieval_takeover > 0: "scripted" (the privileged scripted retriever: a
-    direct reach, grasp and pull), "clearing" (the privileged clearing retriever: it first carries
-    the objects in the target's corridor aside, then reaches, grasps and pulls; both step by step
-    predictable) or "hierarchical" (the OMPL hierarchical planner, observations
-    only, which also moves clutter out of the way; one planner per world, its episode starting at
-    the hand-over; as the "hierarchical" teacher: 1 s per OMPL query, closed-loop)."""
-    takeover_at: str = "first-sight"
-    """When the retriever takes over with retrieval_takeover > 0: "first-sight" (the first step whose
-    observation shows the target) or "start" (the episode start: it acts for the whole episode,
-    search included, and the planner acts throughout the other episodes)."""
-    teacher_label_kinds: str = "all"
-    """Which of the "hierarchical" teacher's steps are labels: "all", or comma-separated action kinds
-    (occrl.baselines.hierarchical.ACTION_KINDS), e.g. "reach,extract": the teacher teaches the
-    retrieval of a located target and leaves the search to the learner."""
-    teacher_replan_inside: bool = False
-    """The "hierarchical" teacher (or taker-over) plans from where the gripper is instead of backing
-    it out of the shelf to search (HierarchicalPlanner(replan_inside=True), the settings of
-    hybrid-ompl's proposer, which acting alone solves 84.0 % of the held-out stage-2 tasks): on
-    the learner's states inside the shelf its labels are then plans from there, not "back out"."""
     teacher_action_noise: float = 0.0
     """The "hierarchical" and "clearing-observed" teachers: where the teacher acts, Gaussian noise
     of this standard deviation (action units) is added to its executed motion, the label staying
@@ -231,13 +176,6 @@ class TrainConfig:
     a sweep finds nothing; then the clearing retriever, which has followed the whole episode; the
     teacher acts and labels its drawn episodes from their start. The two together solve 86.5 % of
     the held-out stage-2 tasks: scripts/handover.py --from hierarchical --to clearing-observed)."""
-    teacher_roll_in: int = 0
-    """The "hierarchical" and "clearing-observed" teachers: in each episode the teacher is drawn for,
-    the learner acts first, for a number of steps drawn uniformly from 0 to this, and the teacher
-    from then on (it has seen the whole episode); only the teacher's frames are labels. The
-    teacher's demonstrations then start from the states the learner's own policy reaches (roll-in
-    by the learner, roll-out by the teacher, as in AggreVaTe / LOLS; beyond the paper,
-    docs/decisions.md). 0: the teacher acts from its usual start."""
     imitation_beta_iters: int = 10
     """The teacher acts with probability decaying from 1 to imitation_beta_min over these iterations
     (0: imitation_beta_min from the start)."""
@@ -271,15 +209,6 @@ class TrainConfig:
     "multi" or "ray", fewer than workers)."""
     noise: float = 0.0
     """Physics noise of the training tasks."""
-    start_scenes: str = ""
-    """A scenes file (occrl.envs.scene_files, e.g. from scripts/start_scene_pool.py: tasks whose
-    target is hidden at the start, or the states a search hands over) from which a share
-    start_scenes_share of the training episodes at its stage (the file's meta "stage") start
-    instead of a sampled task (beyond the paper; "": none). The run names the file, not its
-    contents: keep it unchanged while the run goes on (a resumed run reads it again), and on
-    every node of a "ray" collector."""
-    start_scenes_share: float = 0.5
-    """The probability that a training episode at the start scenes' stage starts from one of them."""
 
     @property
     def frames_per_batch(self) -> int:
@@ -309,16 +238,10 @@ class TrainConfig:
                 f"replay_stage_workers={self.replay_stage_workers} needs collector 'multi' or 'ray' and "
                 f"fewer than workers={self.workers} (got collector {self.collector!r})"
             )
-        if self.retrieval_labels != "planner" and self.imitation_teacher != "hybrid-acting":
-            raise ValueError(f"retrieval_labels applies to imitation_teacher 'hybrid-acting', not {self.imitation_teacher!r}")
         if not 0.0 <= self.retrieval_takeover <= 1.0:
             raise ValueError(f"retrieval_takeover must be a share in [0, 1], got {self.retrieval_takeover!r}")
         if self.retrieval_takeover > 0 and self.imitation_teacher != "hybrid-acting":
             raise ValueError(f"retrieval_takeover applies to imitation_teacher 'hybrid-acting', not {self.imitation_teacher!r}")
-        if (self.takeover_retriever, self.takeover_at) != ("scripted", "first-sight") and self.retrieval_takeover == 0:
-            raise ValueError(
-                f"takeover_retriever {self.takeover_retriever!r} / takeover_at {self.takeover_at!r} need retrieval_takeover > 0 (the share taken over)"
-            )
         if self.label_episodes != "all" and self.imitation_teacher not in ("self", "hybrid-acting", "clearing-observed", "hierarchical"):
             raise ValueError(
                 f"label_episodes={self.label_episodes!r} applies to the teachers whose labels are the actions taken "
@@ -329,25 +252,8 @@ class TrainConfig:
                 "imitation_teacher='self' needs label_episodes='success': the learner's own actions of every "
                 "episode as labels teach nothing (their expected gradient is zero)"
             )
-        if isinstance(self.task_copies, bool) or not isinstance(self.task_copies, int) or self.task_copies < 1:
-            raise ValueError(f"task_copies must be an integer >= 1, got {self.task_copies!r}")
         if self.collector != "single" and (self.workers < 1 or self.num_envs % self.workers):
             raise ValueError(f"num_envs ({self.num_envs}) must be a multiple of workers ({self.workers}) with collector {self.collector!r}")
-        per_worker = self.num_envs if self.collector == "single" else self.num_envs // self.workers
-        if per_worker % self.task_copies:
-            raise ValueError(
-                f"task_copies={self.task_copies} must divide the worlds of each collector worker "
-                f"({per_worker}: num_envs {self.num_envs}, collector {self.collector!r}, workers {self.workers})"
-            )
-        if self.success_weighting == "task" and (self.imitation_teacher != "self" or self.task_copies < 2):
-            raise ValueError(
-                "success_weighting='task' needs imitation_teacher='self' and task_copies >= 2 (the copies of a "
-                f"task count its successes), got teacher {self.imitation_teacher!r}, task_copies {self.task_copies}"
-            )
-        if (self.teacher_roots != "own" or self.teacher_to_the_end) and self.imitation_teacher != "hybrid-acting":
-            raise ValueError(
-                f"teacher_roots / teacher_to_the_end apply to imitation_teacher 'hybrid-acting', not {self.imitation_teacher!r}"
-            )
         if self.teacher_weights and self.imitation_teacher != "hybrid-acting":
             raise ValueError(f"teacher_weights applies to imitation_teacher 'hybrid-acting', not {self.imitation_teacher!r}")
         if self.imitation_teacher in ("hybrid", "hybrid-acting") and not self.heatmap and not self.teacher_weights:
@@ -360,38 +266,12 @@ class TrainConfig:
                 f"imitation_teacher={self.imitation_teacher!r} needs collector 'single' (the teacher's network "
                 f"or episode memory lives in this process), got collector {self.collector!r}"
             )
-        if self.teacher_label_kinds != "all":
-            from occrl.baselines.hierarchical import ACTION_KINDS
-
-            kinds = self.teacher_label_kinds.split(",")
-            if self.imitation_teacher != "hierarchical" or not kinds or not set(kinds) <= set(ACTION_KINDS):
-                raise ValueError(
-                    f"teacher_label_kinds must be 'all' or comma-separated kinds of {ACTION_KINDS} with the "
-                    f"hierarchical teacher, got {self.teacher_label_kinds!r} (teacher {self.imitation_teacher!r})"
-                )
         if self.teacher_action_noise > 0 and self.imitation_teacher not in ("hierarchical", "clearing-observed"):
             raise ValueError(
                 f"teacher_action_noise applies to imitation_teacher 'hierarchical' or 'clearing-observed', not {self.imitation_teacher!r}"
             )
-        if isinstance(self.teacher_roll_in, bool) or not isinstance(self.teacher_roll_in, int) or self.teacher_roll_in < 0:
-            raise ValueError(
-                f"teacher_roll_in must be an integer >= 0 (the most steps the learner acts first), got {self.teacher_roll_in!r}"
-            )
-        if self.teacher_roll_in > 0 and self.imitation_teacher not in ("hierarchical", "clearing-observed"):
-            raise ValueError(
-                f"teacher_roll_in applies to imitation_teacher 'hierarchical' or 'clearing-observed', not {self.imitation_teacher!r}"
-            )
         if self.teacher_search != "learner" and self.imitation_teacher != "clearing-observed":
             raise ValueError(f"teacher_search applies to imitation_teacher 'clearing-observed', not {self.imitation_teacher!r}")
-        if self.teacher_replan_inside and "hierarchical" not in (self.imitation_teacher, self.takeover_retriever):
-            raise ValueError(
-                "teacher_replan_inside applies to the hierarchical teacher or taker-over (imitation_teacher or "
-                f"takeover_retriever 'hierarchical'), not to teacher {self.imitation_teacher!r} / taker-over {self.takeover_retriever!r}"
-            )
-        if not 0.0 < self.start_scenes_share <= 1.0:
-            raise ValueError(f"start_scenes_share must be a probability in (0, 1], got {self.start_scenes_share!r}")
-        if self.start_scenes and not Path(self.start_scenes).is_file():
-            raise ValueError(f"start_scenes names no file: {self.start_scenes!r} (a scenes file, e.g. from scripts/start_scene_pool.py)")
         if self.promotion == "hybrid" and not self.heatmap:
             raise ValueError("promotion='hybrid' needs the heat-map head (the hybrid planner uses it); use 'learner'")
 
@@ -414,15 +294,7 @@ class TrainConfig:
     def from_dict(cls, d: dict) -> "TrainConfig":
         """Settings from :meth:`to_dict` (e.g. a checkpoint's). Settings occrl has removed are
         dropped where they were off, and refused with the version that had them otherwise."""
-        d = dict(d)
-        for name, off in REMOVED_SETTINGS.items():
-            if name in d:
-                value = d.pop(name)
-                if off is not None and value != off:
-                    raise ValueError(
-                        f"training setting {name}={value!r} was removed in occrl 0.2.0 (it only served experiments "
-                        f"shown to hurt: docs/decisions.md); use occrl 0.2.0's first commits (git checkout eed1cea) for this run"
-                    )
+        d = drop_removed_settings(d)
         names = {f.name for f in fields(cls)}
         unknown = set(d) - names
         if unknown:
@@ -430,9 +302,69 @@ class TrainConfig:
         return cls(**d)
 
 
-# Settings removed from the library and the value that meant "off" (None: inert without the others):
-# the PPO expert term and the frozen policy spread of the fine-tuning ablation.
-REMOVED_SETTINGS = {"ppo_bc_coeff": 0.0, "ppo_bc_min_scale": None, "freeze_policy_scale": False}
+@dataclass(frozen=True)
+class RemovedSetting:
+    """A training setting occrl no longer has: the value that meant "off" (None: inert without the
+    others, any value accepted) and the commit of the last version that had it."""
+
+    off: object
+    commit: str
+    why: str
+
+
+_EXPERIMENT = "an experiment that made no shipped network (docs/decisions.md)"
+# Settings removed from the library: a stored config (a checkpoint's) that names one at its "off"
+# value reads as if it did not; any other value is refused, naming the commit that still has it.
+REMOVED_SETTINGS: dict[str, RemovedSetting] = {
+    **{
+        name: RemovedSetting(off, "eed1cea", "it only served experiments shown to hurt (docs/decisions.md)")
+        for name, off in (("ppo_bc_coeff", 0.0), ("ppo_bc_min_scale", None), ("freeze_policy_scale", False))
+    },
+    **{
+        name: RemovedSetting(off, "53b1240", _EXPERIMENT)
+        for name, off in (
+            ("detail_lr", 0.0),
+            ("teacher_roots", "own"),
+            ("teacher_to_the_end", False),
+            ("start_scenes", ""),
+            ("start_scenes_share", None),
+            ("task_copies", 1),
+            ("critic_to_trunk", True),
+            ("success_weighting", "episode"),
+            ("retrieval_labels", "planner"),
+            ("takeover_retriever", "scripted"),
+            ("takeover_at", "first-sight"),
+            ("teacher_label_kinds", "all"),
+            ("teacher_replan_inside", False),
+            ("teacher_roll_in", 0),
+        )
+    },
+}
+
+
+def drop_removed_settings(stored: dict) -> dict:
+    """``stored`` without the settings of :data:`REMOVED_SETTINGS`; ``ValueError`` where one is
+    not at its "off" value, naming the commit whose occrl still has it.
+
+    Examples:
+        >>> from occrl.training.config import drop_removed_settings
+        >>> drop_removed_settings({"lr": 1e-3, "task_copies": 1})
+        {'lr': 0.001}
+        >>> drop_removed_settings({"task_copies": 4})
+        Traceback (most recent call last):
+            ...
+        ValueError: training setting task_copies=4 was removed from occrl (an experiment that made no shipped network (docs/decisions.md)); to run or resume with it, use the version that has it: git checkout 53b1240
+    """
+    kept = dict(stored)
+    for name, removed in REMOVED_SETTINGS.items():
+        if name in kept:
+            value = kept.pop(name)
+            if removed.off is not None and value != removed.off:
+                raise ValueError(
+                    f"training setting {name}={value!r} was removed from occrl ({removed.why}); "
+                    f"to run or resume with it, use the version that has it: git checkout {removed.commit}"
+                )
+    return kept
 
 
 def training_device(name: str) -> torch.device:

@@ -24,7 +24,6 @@ from tensordict.nn import TensorDictModuleBase
 
 from occrl.baselines.scripted import ScriptedRetriever
 from occrl.envs import world_constants as C
-from occrl.training.config import SETTING_CHOICES
 
 __all__ = [
     "TAKEOVER_MOMENTS",
@@ -40,7 +39,7 @@ __all__ = [
 
 #: When :class:`RetrievalTakeover`'s retriever takes over: at the first sight of the target, or at
 #: the episode start (a whole episode, search included).
-TAKEOVER_MOMENTS = SETTING_CHOICES["takeover_at"]
+TAKEOVER_MOMENTS = ("first-sight", "start")
 
 
 class ExpertMixPolicy(TensorDictModuleBase):

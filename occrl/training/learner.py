@@ -15,7 +15,7 @@ from tensordict import TensorDictBase
 from torchrl.modules import set_recurrent_mode
 
 from occrl.modules import OccNet
-from occrl.objectives import PPOHeatmapLoss, belief_detached, heatmap_loss, imitation_nll
+from occrl.objectives import PPOHeatmapLoss, heatmap_loss, imitation_nll
 from occrl.training.config import TrainConfig
 from occrl.training.dagger_buffer import DaggerBuffer
 
@@ -78,14 +78,8 @@ class Learner:
             heatmap_coeff=config.heatmap_coeff,
             gamma=config.gamma,
             heatmap_fraction=config.heatmap_fraction,
-            critic_to_trunk=config.critic_to_trunk,
         )
         params: list = list(net.parameters())
-        if config.detail_lr > 0:
-            raise ValueError(
-                f"detail_lr={config.detail_lr} needs a network with a detail branch, which occrl no longer builds; "
-                "its code is at commit 53b1240 (git checkout 53b1240)"
-            )
         if config.optimizer == "rmsprop":
             self.optimizer = torch.optim.RMSprop(params, lr=config.lr)
         elif config.optimizer == "adam":
@@ -179,10 +173,7 @@ class Learner:
         return {"loss_critic": self.value_loss(td)}
 
     def value_loss(self, td: TensorDictBase) -> torch.Tensor:
-        """c1 x smooth-L1 value loss of the value head on ``td`` (which holds ``"belief"``; detached
-        first unless ``critic_to_trunk``)."""
-        if not self.config.critic_to_trunk:
-            td = belief_detached(td.select("belief", "value_target"))
+        """c1 x smooth-L1 value loss of the value head on ``td`` (which holds ``"belief"``)."""
         value = self.net.critic(td).get("state_value")
         return self.config.critic_coeff * torch.nn.functional.smooth_l1_loss(value, td.get("value_target"))
 

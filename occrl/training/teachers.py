@@ -52,14 +52,14 @@ def teacher_network(value: str) -> OccNet:
     return net
 
 
-def make_retriever(name: str, seed: int, replan_inside: bool = False):
+def make_retriever(name: str, seed: int):
     """The teacher or taker-over that is not the hybrid planner: the hierarchical planner (with
     the teacher's settings, :data:`HIERARCHICAL_TEACHER`), the clearing retriever (privileged, or
     deciding from observations), or the privileged scripted one (otherwise)."""
     if name == "hierarchical":
         from occrl.baselines.hierarchical import HierarchicalPlanner  # needs OMPL
 
-        return HierarchicalPlanner(seed=seed, replan_inside=replan_inside, **HIERARCHICAL_TEACHER)
+        return HierarchicalPlanner(seed=seed, **HIERARCHICAL_TEACHER)
     if name == "clearing-observed":
         return ObservedClearingRetriever()
     return ClearingRetriever() if name == "clearing" else ScriptedRetriever()
@@ -71,15 +71,9 @@ def make_expert(config: TrainConfig, acting_net: OccNet, seed: int, teacher_net:
     (``teacher_weights``) is given; planners are reseeded every iteration."""
     if config.imitation_teacher == "hybrid-acting":
         planning_net = acting_net if teacher_net is None else teacher_net
-        if config.teacher_roots != "own" or config.teacher_to_the_end:
-            raise ValueError(
-                f"teacher_roots={config.teacher_roots!r} / teacher_to_the_end={config.teacher_to_the_end} need the privileged "
-                "planner occrl no longer has; its code is at commit 53b1240 (git checkout 53b1240)"
-            )
         expert = HybridPlanner(planning_net, m=4, h=4, seed=seed, inference=config.teacher_inference, batch_worlds=True)
         if config.retrieval_takeover > 0:  # a retriever acts in a share of the retrievals
-            taker = make_retriever(config.takeover_retriever, seed, config.teacher_replan_inside)
-            expert = RetrievalTakeover(expert, taker, config.retrieval_takeover, seed=seed, at=config.takeover_at)
+            expert = RetrievalTakeover(expert, ScriptedRetriever(), config.retrieval_takeover, seed=seed)
         return expert
     if config.imitation_teacher == "self":
         return None
@@ -88,17 +82,14 @@ def make_expert(config: TrainConfig, acting_net: OccNet, seed: int, teacher_net:
 
         searcher = HierarchicalPlanner(seed=seed, **HIERARCHICAL_TEACHER)
         return SearchThenRetrieve(searcher, ObservedClearingRetriever(), retriever_follows=True)
-    return make_retriever(config.imitation_teacher, seed, config.teacher_replan_inside)
+    return make_retriever(config.imitation_teacher, seed)
 
 
 def collection_policy(config: TrainConfig, acting_policy, expert):
     """What the collector runs: the learner's policy, mixed with or labelled by the teacher during
     imitation (the share the teacher acts is set per iteration on the returned policy)."""
     if config.imitation_iters > 0 and config.imitation_teacher == "hierarchical":
-        kinds = None if config.teacher_label_kinds == "all" else tuple(config.teacher_label_kinds.split(","))
-        return OnlineTeacherPolicy(
-            acting_policy, expert, 0.0, label_kinds=kinds, action_noise=config.teacher_action_noise, roll_in=config.teacher_roll_in
-        )
+        return OnlineTeacherPolicy(acting_policy, expert, 0.0, action_noise=config.teacher_action_noise)
     if config.imitation_iters > 0 and config.imitation_teacher == "clearing-observed":
         searches = config.teacher_search != "learner"  # else the learner searches, the teacher acts from the first sight
         return OnlineTeacherPolicy(
@@ -107,7 +98,6 @@ def collection_policy(config: TrainConfig, acting_policy, expert):
             0.0,
             from_first_sight=not searches,
             action_noise=config.teacher_action_noise,
-            roll_in=config.teacher_roll_in,
         )
     if config.imitation_iters > 0 and config.imitation_teacher != "self":
         return ExpertMixPolicy(acting_policy, expert, 0.0)

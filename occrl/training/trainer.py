@@ -29,7 +29,6 @@ import numpy as np
 import torch
 from tensordict import TensorDictBase
 
-from occrl.baselines.scripted import ScriptedRetriever
 from occrl.envs.episodes import run_episodes, task_scenes
 from occrl.modules import make_occnet
 from occrl.objectives import compute_advantages
@@ -45,7 +44,6 @@ from occrl.training.dagger import (
     RetrievalTakeover,
     label_with_expert,
     label_with_planner,
-    relabel_retrieval,
     since_first_sight,
 )
 from occrl.training.learner import Learner
@@ -59,7 +57,7 @@ from occrl.training.run_folder import (
     same_run_settings,
     truncate_metrics,
 )
-from occrl.training.stats import episode_stats, successful_episode_frames, task_success_weights
+from occrl.training.stats import episode_stats, successful_episode_frames
 from occrl.training.teachers import collection_policy, make_expert, teacher_network
 
 __all__ = ["Trainer", "hybrid_validation_success", "VALIDATION_SEED_BASE"]
@@ -154,7 +152,6 @@ class Trainer:
         self.train_seconds = 0.0
         self.cpu_seconds: float | None = 0.0  # CPU of the run's process tree (tree_cpu_seconds); None: not measured from the start
         self.expert = make_expert(config, self.acting_net, self.seed, teacher_net)
-        self.retriever = ScriptedRetriever()  # labels the target-in-view steps (retrieval_labels="scripted")
         for leftover in self.run_dir.glob("*.tmp"):  # a write a crash interrupted; its target is intact
             leftover.unlink()
         ckpt = self.run_dir / CHECKPOINT
@@ -332,18 +329,13 @@ class Trainer:
                     label_with_planner(data, self.acting_net, seed=self.seed * 1_000_003 + self.iteration, inference=c.teacher_inference)
                 elif phase == "imitation" and c.imitation_teacher == "hybrid-acting":
                     data.set("expert_action", data.get("action").clone())  # the planner acted
-                    if c.retrieval_labels == "scripted":
-                        relabel_retrieval(data, self.retriever)
                 elif phase == "imitation" and c.imitation_teacher == "self":
                     data.set("expert_action", data.get("action").clone())  # the learner acted
                 elif c.imitation_teacher == "hierarchical":
                     # labelled while collecting (OnlineTeacherPolicy), in every phase; with successes
                     # only, its own episodes only (below: those that succeed)
                     if phase == "imitation" and c.label_episodes == "success":
-                        acted = data.get("teacher_acts").reshape(data.shape).to(torch.float32)
-                        if "expert_weight" in data.keys():  # teacher_label_kinds
-                            acted = acted * data.get("expert_weight").reshape(data.shape)
-                        data.set("expert_weight", acted)
+                        data.set("expert_weight", data.get("teacher_acts").reshape(data.shape).to(torch.float32))
                 elif phase == "imitation" and c.imitation_teacher == "clearing-observed":
                     # labelled while collecting; only the teacher's own retrievals are labels: on the
                     # learner's states its corrections are mostly "back out first" (docs/decisions.md)
@@ -353,10 +345,7 @@ class Trainer:
                     if c.imitation_teacher == "clearing":  # retrieval labels only: the learner keeps its search
                         data.set("expert_weight", since_first_sight(data).to(torch.float32))
                 if phase == "imitation" and c.label_episodes == "success":
-                    if c.success_weighting == "task":  # every solved task weighs alike
-                        successes = task_success_weights(data, c.task_copies)
-                    else:
-                        successes = successful_episode_frames(data).to(torch.float32)
+                    successes = successful_episode_frames(data).to(torch.float32)
                     if "expert_weight" in data.keys():
                         successes = successes * data.get("expert_weight")
                     data.set("expert_weight", successes)
@@ -405,9 +394,6 @@ class Trainer:
                     summary["cpu_hours"] = self.cpu_seconds / 3600
                 if hybrid_rate is not None:
                     summary["hybrid_success_rate"] = hybrid_rate
-                if c.task_copies > 1:  # the share of tasks at least one copy solved (in its first episode)
-                    firsts = successful_episode_frames(data)[:, 0].reshape(-1, c.task_copies)
-                    summary["task_solved_rate"] = float(firsts.any(1).float().mean())
                 if isinstance(self.expert, RetrievalTakeover):  # the share of frames the retriever acted in
                     summary["takeover_share"] = self.expert.frames_taken_over / max(self.expert.frames, 1)
                 summary.update(self.collection.per_stage_success(data, episode_stats))

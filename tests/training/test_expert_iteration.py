@@ -1,6 +1,5 @@
 """Expert iteration: the hybrid planner labels the learner's frames (``imitation_teacher="hybrid"``)."""
 
-import dataclasses
 import json
 
 import pytest
@@ -79,27 +78,6 @@ def test_hybrid_acting_teacher_on_onnxruntime_plans_on_the_updated_weights(tmp_p
     onnx, eager = tr.expert.stepper.step(pixels, h, h)[0], NetworkStepper(tr.net).step(pixels, h, h)[0]
     torch.testing.assert_close(onnx["loc"], eager["loc"], atol=1e-4, rtol=1e-4)
     tr.close()
-
-
-def test_scripted_retrieval_labels_replace_the_planners_where_the_target_is_in_view(tmp_path):
-    """retrieval_labels="scripted": on the frames whose observation shows the target the label
-    is the privileged scripted retriever's action, elsewhere the acting planner's."""
-    from occrl.baselines import ScriptedRetriever
-    from occrl.training.dagger import label_with_expert, relabel_retrieval, target_in_view
-
-    cfg = get_train_config("tiny", imitation_iters=5, imitation_teacher="hybrid-acting", collector="single", retrieval_labels="scripted")
-    tr = Trainer(cfg, tmp_path, seed=1, progress=False, tensorboard=False)
-    data = tr._collect()
-    data.set("expert_action", data.get("action").clone())
-    shown = target_in_view(data)
-    assert shown.any() and not shown.all()
-    labels = relabel_retrieval(data.clone(), tr.retriever)["expert_action"]
-    scripted = label_with_expert(data.clone(), ScriptedRetriever())["expert_action"]
-    assert torch.equal(labels[shown], scripted[shown]) and torch.equal(labels[~shown], data["action"][~shown])
-    tr.train(iterations=1)
-    tr.close()
-    with pytest.raises(ValueError, match="retrieval_labels applies to"):
-        Trainer(get_train_config("tiny", retrieval_labels="scripted"), tmp_path / "b", seed=0, progress=False)
 
 
 def test_retrieval_takeover_lets_the_scripted_retriever_act_from_the_first_sight_of_the_target(tmp_path):
@@ -301,66 +279,3 @@ def test_clearing_observed_teacher_with_the_hierarchical_search(tmp_path):
     assert len(sweeping) and bool((sweeping[:, 1].abs() == 1.0).any())  # its sweeps: full lateral speed
     with pytest.raises(ValueError, match="teacher_search applies to"):
         get_train_config("tiny", imitation_iters=5, imitation_teacher="hierarchical", teacher_search="hierarchical").validate()
-
-
-def test_clearing_observed_teacher_after_the_learners_roll_in(tmp_path):
-    """teacher_roll_in: in a drawn episode the learner acts for its first T steps (T drawn from
-    0..roll_in per world and episode), the teacher from then on, and only the teacher's frames are
-    labels; other teachers refuse the setting."""
-    tr, data = _clearing_teacher_collection(
-        tmp_path,
-        weights_file("occnet-takeover"),  # a named network: its episodes, and so the roll-ins drawn in them, stay these
-        teacher_search="hierarchical",
-        teacher_roll_in=6,
-        imitation_beta_min=1.0,
-        start_stage=1,
-        steps_per_env=20,
-    )
-    acted = data["teacher_acts"].reshape(data.shape)
-    starts = data["is_init"].reshape(data.shape)
-    first_steps = []
-    for w in range(data.shape[0]):
-        episode_starts = torch.nonzero(starts[w]).flatten().tolist() + [data.shape[1]]
-        for begin, end in zip(episode_starts[:-1], episode_starts[1:]):
-            steps = acted[w, begin:end]
-            t = int(torch.argmax(steps.to(torch.int64))) if bool(steps.any()) else end - begin
-            assert not bool(steps[:t].any()) and bool(steps[t:].all())  # the learner first, then the teacher to the end
-            if end < data.shape[1]:  # a whole episode: the teacher took over within roll_in steps or it had ended
-                assert t <= 6 or t == end - begin
-            first_steps.append(t)
-    assert min(first_steps) == 0 and max(first_steps) > 1  # drawn: some episodes from the start, some later
-    learner = ~acted
-    assert bool((data["action"][learner] != data["expert_action"][learner]).any())  # the learner's own actions there
-    with pytest.raises(ValueError, match="teacher_roll_in applies to"):
-        get_train_config("tiny", imitation_iters=5, teacher_roll_in=3).validate()
-    with pytest.raises(ValueError, match="teacher_roll_in must be an integer"):
-        get_train_config("tiny", imitation_iters=5, imitation_teacher="clearing-observed", teacher_roll_in=-2).validate()
-    from occrl.training.dagger import OnlineTeacherPolicy
-
-    for bad in (-1, 2.5, True):
-        with pytest.raises(ValueError, match="roll_in must be an integer"):
-            OnlineTeacherPolicy(tr.net.policy, tr.expert, roll_in=bad)
-
-
-def test_hybrid_acting_teacher_from_privileged_roots_is_refused_naming_where_it_lives(tmp_path):
-    """teacher_roots other than "own" and teacher_to_the_end needed a privileged planner that is no
-    longer in occrl: building the teacher says which commit has it."""
-    from occrl.training.teachers import make_expert
-
-    cfg = get_train_config("tiny", imitation_iters=5, imitation_teacher="hybrid-acting", collector="single")
-    net = make_occnet("paper")
-    for settings in (dict(teacher_roots="state"), dict(teacher_to_the_end=True)):
-        with pytest.raises(ValueError, match="git checkout 53b1240"):
-            make_expert(dataclasses.replace(cfg, **settings), net, seed=0)
-    assert isinstance(make_expert(cfg, net, seed=0), HybridPlanner)
-    for settings in (dict(teacher_roots="state"), dict(teacher_to_the_end=True)):
-        with pytest.raises(ValueError, match="apply to imitation_teacher 'hybrid-acting'"):
-            Trainer(get_train_config("tiny", imitation_teacher="scripted", **settings), tmp_path / "bad", seed=0, progress=False)
-    with pytest.raises(ValueError, match="teacher_roots must be one of"):
-        Trainer(
-            get_train_config("tiny", imitation_teacher="hybrid-acting", collector="single", teacher_roots="truth"),
-            tmp_path / "bad",
-            seed=0,
-            progress=False,
-        )
-    assert not (tmp_path / "bad" / "checkpoint.pt").exists()

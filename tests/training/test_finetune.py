@@ -120,8 +120,15 @@ def test_removed_settings_resume_when_off_and_are_refused_when_on(tmp_path):
     old = {**base.to_dict(), "ppo_bc_coeff": 0.0, "ppo_bc_min_scale": 0.01, "freeze_policy_scale": False}
     assert TrainConfig.from_dict(old) == base and same_run_settings(old, base.to_dict())
     for name, value in (("ppo_bc_coeff", 1.0), ("freeze_policy_scale", True)):
-        with pytest.raises(ValueError, match=f"{name}={value!r} was removed in occrl 0.2.0.*git checkout eed1cea"):
+        with pytest.raises(ValueError, match=f"{name}={value!r} was removed from occrl.*git checkout eed1cea"):
             TrainConfig.from_dict({**old, name: value})
+    # the experiments' settings removed later: accepted at their old defaults, refused otherwise
+    older = {**old, "detail_lr": 0.0, "start_scenes": "", "start_scenes_share": 0.3, "task_copies": 1, "teacher_roll_in": 0}
+    older |= {"critic_to_trunk": True, "teacher_roots": "own", "takeover_at": "first-sight", "teacher_label_kinds": "all"}
+    assert TrainConfig.from_dict(older) == base and same_run_settings(older, base.to_dict())
+    for name, value in (("task_copies", 2), ("start_scenes", "pool.json"), ("critic_to_trunk", False), ("teacher_roots", "state")):
+        with pytest.raises(ValueError, match=f"{name}={value!r} was removed from occrl.*git checkout 53b1240"):
+            TrainConfig.from_dict({**older, name: value})
     with pytest.raises(TypeError):
         get_train_config("tiny", ppo_bc_coeff=0.5)  # no longer a setting
 

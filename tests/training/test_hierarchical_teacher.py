@@ -8,7 +8,7 @@ import math
 import pytest
 import torch
 
-from occrl.baselines import ClearingRetriever, ScriptedRetriever
+from occrl.baselines import ScriptedRetriever
 from occrl.baselines.hierarchical import HierarchicalPlanner
 from occrl.envs import make_env
 from occrl.envs import world_constants as C
@@ -158,18 +158,6 @@ def test_weighted_imitation_averages_over_labelled_frames():
     assert torch.allclose(weighted, first_two) and not torch.allclose(weighted, full)
 
 
-def test_label_kinds_setting_is_checked(tmp_path):
-    with pytest.raises(ValueError, match="teacher_label_kinds must be"):
-        Trainer(get_train_config("tiny", teacher_label_kinds="reach"), tmp_path / "a", seed=0, progress=False)  # scripted teacher
-    with pytest.raises(ValueError, match="teacher_label_kinds must be"):
-        Trainer(
-            get_train_config("tiny", imitation_teacher="hierarchical", collector="single", teacher_label_kinds="grasp"),
-            tmp_path / "b",
-            seed=0,
-            progress=False,
-        )
-
-
 def test_the_hierarchical_planner_takes_over_with_a_memory_per_world():
     """RetrievalTakeover with a retriever that remembers the episode: one copy per world, fed that
     world's observations (observation keys only) from the first sight of the target on, the first
@@ -197,28 +185,6 @@ def test_the_hierarchical_planner_takes_over_with_a_memory_per_world():
     assert [c.seed for c in mix.world_retrievers] == [3000, 3001, 3002, 3003]
 
 
-@pytest.mark.parametrize("name, kind, remembers", [("hierarchical", HierarchicalPlanner, True), ("clearing", ClearingRetriever, False)])
-def test_trainer_with_a_retriever_taking_over(tmp_path, name, kind, remembers):
-    """takeover_retriever: the hierarchical planner (copied per world: it remembers the episode) or
-    the privileged clearing retriever (called on the taken-over worlds together)."""
-    cfg = get_train_config(
-        "tiny", imitation_iters=5, imitation_teacher="hybrid-acting", collector="single", retrieval_takeover=1.0, takeover_retriever=name
-    )
-    tr = Trainer(cfg, tmp_path, seed=1, progress=False, tensorboard=False)
-    assert isinstance(tr.expert.retriever, kind) and tr.expert.remembers == remembers
-    tr.train(iterations=1)
-    tr.close()
-    row = json.loads((tmp_path / "metrics.jsonl").read_text().splitlines()[0])
-    assert 0 < row["takeover_share"] <= 1
-    with pytest.raises(ValueError, match="need retrieval_takeover > 0"):
-        Trainer(
-            get_train_config("tiny", imitation_teacher="hybrid-acting", collector="single", takeover_retriever=name),
-            tmp_path / "b",
-            seed=0,
-            progress=False,
-        )
-
-
 def test_a_takeover_at_the_start_hands_whole_episodes_to_the_retriever(tmp_path):
     """at="start": in the drawn share the retriever acts from the episode's first step (its episode
     is the world's), the planner throughout the others."""
@@ -238,18 +204,6 @@ def test_a_takeover_at_the_start_hands_whole_episodes_to_the_retriever(tmp_path)
     assert mix.frames_taken_over == 4 * len(whole) and mix.frames == 16
     with pytest.raises(ValueError, match="at must be one of"):
         RetrievalTakeover(HybridPlanner(net, m=2, h=2), retriever, share=0.5, at="midway")
-
-
-def test_the_teacher_can_plan_from_inside_the_shelf(tmp_path):
-    cfg = get_train_config("tiny", imitation_teacher="hierarchical", collector="single", teacher_replan_inside=True)
-    tr = Trainer(cfg, tmp_path / "a", seed=0, progress=False, tensorboard=False)
-    assert tr.expert.replan_inside and tr.expert.follow_tolerance is not None
-    tr.close()
-    plain = Trainer(get_train_config("tiny", imitation_teacher="hierarchical", collector="single"), tmp_path / "b", seed=0, progress=False)
-    assert not plain.expert.replan_inside  # the default is the teacher of the recorded runs
-    plain.close()
-    with pytest.raises(ValueError, match="teacher_replan_inside applies to the hierarchical teacher"):
-        get_train_config("tiny", teacher_replan_inside=True).validate()  # the scripted teacher has no such setting
 
 
 def test_the_hierarchical_teachers_own_successes_only(tmp_path):

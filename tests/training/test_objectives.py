@@ -104,8 +104,8 @@ def test_advantages_reuse_embeddings_exactly_across_episode_ends():
 
 @pytest.mark.parametrize("to_trunk", [True, False])
 def test_critic_to_trunk_decides_whether_the_value_loss_trains_the_trunk(batch, to_trunk):
-    """critic_to_trunk=False: the value loss trains the value head alone, in PPO and in the
-    imitation update, and leaves its value unchanged."""
+    """critic_to_trunk=False: the value loss trains the value head alone and leaves its value
+    unchanged; the trainer's imitation update trains the trunk with it (the paper)."""
     from occrl.training import get_train_config
     from occrl.training.learner import Learner
 
@@ -123,7 +123,7 @@ def test_critic_to_trunk_decides_whether_the_value_loss_trains_the_trunk(batch, 
     assert grads(ppo["loss_critic"]) == [to_trunk, True]
     if not to_trunk:  # the same value either way
         assert ppo["loss_critic"].item() == pytest.approx(PPOHeatmapLoss(net)(data.copy())["loss_critic"].item(), rel=1e-6)
-    learner = Learner(net, get_train_config("tiny", critic_to_trunk=to_trunk), torch.device("cpu"))
+    learner = Learner(net, get_train_config("tiny"), torch.device("cpu"))
     terms = learner.imitation_terms(data.copy().set("expert_action", data["action"]))
-    assert grads(terms["loss_critic"]) == [to_trunk, True]
+    assert grads(terms["loss_critic"]) == [True, True]
     net.zero_grad()

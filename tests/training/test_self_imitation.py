@@ -84,47 +84,6 @@ def test_task_success_weights_weigh_every_solved_task_alike():
         task_success_weights(data, 3)
 
 
-def test_task_weighted_self_imitation_labels_the_successes_of_task_groups(tmp_path):
-    """With success_weighting="task" the copies of a task run the same scene and the labels weigh
-    1 / (the task's successes); the run logs the share of tasks solved."""
-    cfg = get_train_config(
-        "tiny",
-        imitation_iters=5,
-        imitation_teacher="self",
-        label_episodes="success",
-        steps_per_env=40,
-        start_stage=1,
-        task_copies=2,
-        success_weighting="task",
-    )
-    tr = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False, init_weights=weights_file("occnet"))
-    data = tr._collect()
-    expected = task_success_weights(data, 2)
-    assert ((expected > 0) & (expected < 1)).any()  # a task both copies solved: its successes weigh 1/2
-    pixels = data["pixels"][:, 0]
-    assert torch.equal(pixels[0], pixels[1]) and torch.equal(pixels[2], pixels[3])  # the copies start alike
-    assert not torch.equal(pixels[0], pixels[2])
-    summary = tr.train(iterations=1)
-    tr.close()
-    (batch,) = tr.learner.dagger.batches
-    assert torch.equal(batch["expert_weight"].reshape(batch.shape), expected)
-    solved = successful_episode_frames(data)[:, 0].reshape(2, 2).any(1).float().mean()
-    assert summary["task_solved_rate"] == float(solved)
-
-
-def test_task_weighting_needs_copies_and_the_self_teacher():
-    with pytest.raises(ValueError, match="success_weighting='task' needs"):
-        get_train_config("tiny", imitation_iters=2, imitation_teacher="self", label_episodes="success", success_weighting="task").validate()
-    with pytest.raises(ValueError, match="task_copies=3 must divide"):
-        get_train_config("tiny", task_copies=3).validate()
-    with pytest.raises(ValueError, match="task_copies must be an integer"):
-        get_train_config("tiny", task_copies=True).validate()
-    with pytest.raises(ValueError, match=r"num_envs \(6\) must be a multiple of workers \(4\)"):
-        get_train_config("tiny", num_envs=6, collector="multi", workers=4).validate()
-    with pytest.raises(ValueError, match=r"task_copies=4 must divide the worlds of each collector worker \(2"):
-        get_train_config("tiny", num_envs=4, collector="multi", workers=2, task_copies=4).validate()
-
-
 def test_graded_weights_count_across_minibatches():
     """The imitation loss divides by the number of weighted frames, not the weights' sum: halving
     every weight halves the loss (a minibatch of low-weight successes takes a smaller step), and

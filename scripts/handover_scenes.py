@@ -1,13 +1,10 @@
-"""Pools of start states for training (beyond the paper): the situations a network fails most in.
-
-A pool (a scenes file, :func:`occrl.envs.scene_files.save_scenes`) lets training start a share of
-its episodes from it (``TrainConfig.start_scenes``, :class:`~occrl.envs.ShelfEnv`'s
-``scene_pool``). Two kinds (``scripts/start_scene_pool.py`` writes either):
+"""Scenes a search hands over (for scripts/search_split.py): tasks whose target is hidden at the
+start, and the states a decision maker's search reaches at its first sight of the target.
 
 - :func:`hidden_target_scenes`: tasks whose target perception does not report in the first
   observation, so that the episode begins with a search. On stage 2 the network's own policy
   solves about 77 % of the tasks whose target it sees at the start and about half of the others
-  (docs/decisions.md); the pool puts more of the training episodes where it fails.
+  (docs/decisions.md).
 - :func:`collect_handover_scenes`: the worlds a decision maker's search hands over, recorded at
   the first observation reporting the target (every object where it lies then, the gripper where
   it is), for practising the retrieval from there. An episode started there begins with a fresh
