@@ -19,7 +19,7 @@ the learner, so the data can be collected once and trained on for as long as the
         --out OUT/stochastic-gen_s2_step6000.json
     # the data run's size and its teacher's success
     python scripts/offline_imitation.py --data DATA --summary
-    # with --teacher-roll-in: how the teacher's demonstrations begin, by the learner's steps before it
+    # how the teacher's demonstrations begin, by the learner's steps before it
     python scripts/offline_imitation.py --data DATA --takeover
     # several data runs of the same settings (e.g. collected side by side with other --seed), fitted as one
     python scripts/offline_imitation.py --data DATA DATA_SEED8 --init-weights occnet-takeover --out OUT2
@@ -128,7 +128,7 @@ class Args:
     teacher's on every labelled frame of --data (a data run that none of them was fitted on)."""
     takeover: bool = False
     """Fit nothing: print, by how many steps the learner acted before the teacher took over
-    (data runs with --teacher-roll-in), how often the teacher's first three commands back the
+    (data runs of a teacher that takes over from the learner), how often the teacher's first three commands back the
     gripper out (forward below -0.3) and their mean forward command."""
 
 
@@ -169,10 +169,10 @@ def labelled_sequences_of_runs(data_runs: list[Path], first_iterations: int = 0)
     must agree except in :data:`NOT_LABELS` (the first run's are returned)."""
     config, data = labelled_sequences(data_runs[0], first_iterations)
     parts = [data]
-    first = config.to_dict()
+    first = config.flat_settings()
     for run in data_runs[1:]:
         other, more = labelled_sequences(run, first_iterations)
-        theirs = other.to_dict()
+        theirs = other.flat_settings()
         differ = sorted(k for k, v in theirs.items() if k not in NOT_LABELS and first.get(k) != v)
         if differ:
             settings = ", ".join(f"{k}: {theirs[k]!r} against {first.get(k)!r}" for k in differ)
@@ -460,7 +460,7 @@ def main(argv: list[str] | None = None) -> None:
         with metrics.open("a") as f:
             f.write(
                 json.dumps(
-                    {"step": 0, "validation_nll": validation_nll(net, validation, config.imitation_min_scale, config.minibatch_envs)}
+                    {"step": 0, "validation_nll": validation_nll(net, validation, config.imitation.min_scale, config.minibatch_envs)}
                 )
                 + "\n"
             )
@@ -480,7 +480,7 @@ def main(argv: list[str] | None = None) -> None:
             row = {
                 "step": step,
                 "loss": sum(losses) / len(losses),
-                "validation_nll": validation_nll(net, validation, config.imitation_min_scale, config.minibatch_envs),
+                "validation_nll": validation_nll(net, validation, config.imitation.min_scale, config.minibatch_envs),
             }
             row.update(hours_spent())
             losses.clear()

@@ -95,10 +95,11 @@ def run_export(args: argparse.Namespace) -> int:
     saved = load_checkpoint(checkpoint) if checkpoint.exists() else None
     started_from = saved["state"].get("init_weights") if saved else None
     if saved and "train_config" in saved:  # the recipe: the run's settings that differ from its preset's
-        from occrl.training.presets import get_train_config
+        from occrl.training import TrainConfig, get_train_config
 
-        preset = get_train_config(args.preset).to_dict()
-        changed = {k: v for k, v in saved["train_config"].items() if k in preset and preset[k] != v}
+        preset = get_train_config(args.preset).flat_settings()  # by the names of occrl train's options
+        run = TrainConfig.from_dict(saved["train_config"]).flat_settings()
+        changed = {k: v for k, v in run.items() if preset[k] != v}
         card["settings_beyond_preset"] = changed
         card["summary"] += "".join(f", {k}={v}" for k, v in changed.items() if k not in ("stage", "start_stage"))
     if started_from:  # the run began from another network (--init-weights): its own training comes first

@@ -1,15 +1,20 @@
-"""Training: configs (presets), curriculum, DAgger warm start, checkpoints, the trainer."""
+"""Training: configs (presets), curriculum, imitation teachers, checkpoints, the trainer."""
 
 from occrl.modules.weights import CheckpointError, load_weights, save_weights
 from occrl.training.checkpoint import load_checkpoint, save_checkpoint
-from occrl.training.config import TrainConfig
+from occrl.training.config import ImitationConfig, PromotionConfig, TrainConfig
 from occrl.training.presets import TRAIN_PRESETS, get_train_config
 from occrl.training.curriculum import Curriculum
 from occrl.training.stats import episode_stats
+from occrl.training.teachers import TEACHERS, Teacher
 from occrl.training.trainer import Trainer
 
 __all__ = [
     "TrainConfig",
+    "ImitationConfig",
+    "PromotionConfig",
+    "Teacher",
+    "TEACHERS",
     "TRAIN_PRESETS",
     "get_train_config",
     "Curriculum",

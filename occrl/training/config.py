@@ -1,33 +1,69 @@
-"""Training settings: :class:`TrainConfig`, one documented field per setting, and its checks.
+"""Training settings: :class:`TrainConfig`, the core of PPO, collection and curriculum with one
+documented field per setting, its :class:`PromotionConfig` and its optional
+:class:`ImitationConfig`, whose teacher (:mod:`occrl.training.teachers`) holds its own settings.
 
+Every setting also has a flat name, one per ``occrl train`` option (``imitation_iters`` for
+``imitation.iterations``, ``teacher_inference`` for the teacher's ``inference``):
+:meth:`TrainConfig.flat_settings` and :meth:`TrainConfig.from_dict` translate, so that checkpoints
+written before the nested form, model cards' recipes and command lines read as they always did.
 The named presets built from it live in :mod:`occrl.training.presets`."""
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, fields
+from dataclasses import dataclass, fields
+from functools import lru_cache
+
 import torch
 
 from occrl.envs import world_constants as C
+from occrl.training.removed_settings import drop_removed_settings
+from occrl.training.teachers import LABEL_EPISODES, TEACHER_INFERENCE, TEACHER_SEARCH, TEACHERS, ScriptedTeacher, Teacher
 
 __all__ = [
     "TrainConfig",
+    "ImitationConfig",
+    "PromotionConfig",
     "SETTING_CHOICES",
-    "REMOVED_SETTINGS",
-    "RemovedSetting",
-    "drop_removed_settings",
+    "same_run_settings",
     "training_device",
     "dataclass_field_docs",
 ]
 
-# The values a string setting accepts (TrainConfig.validate checks them; ``occrl train`` offers them).
+# The values a string setting accepts (checked when settings are read; ``occrl train`` offers them).
 SETTING_CHOICES: dict[str, tuple[str, ...]] = {
     "collector": ("single", "multi", "ray"),
     "optimizer": ("rmsprop", "adam"),
-    "imitation_teacher": ("scripted", "clearing", "clearing-observed", "hybrid", "hybrid-acting", "hierarchical", "self"),
-    "label_episodes": ("all", "success"),
+    "imitation_teacher": tuple(TEACHERS),
+    "label_episodes": LABEL_EPISODES,
     "promotion": ("learner", "hybrid"),
-    "teacher_inference": ("torch", "onnxruntime"),
-    "teacher_search": ("learner", "hierarchical"),
+    "teacher_inference": TEACHER_INFERENCE,
+    "teacher_search": TEACHER_SEARCH,
+}
+
+# The flat setting names (``occrl train``'s options, checkpoints before the nested form, model
+# cards' recipes) of the imitation settings (ImitationConfig's fields) and of the teachers' own.
+IMITATION_SETTINGS = {
+    "imitation_iters": "iterations",
+    "imitation_beta_iters": "beta_iters",
+    "imitation_beta_min": "beta_min",
+    "imitation_min_scale": "min_scale",
+    "imitation_buffer_iters": "buffer_iters",
+    "imitation_updates": "updates",
+}
+PROMOTION_SETTINGS = {
+    "promotion": "rule",
+    "promote_threshold": "threshold",
+    "promote_window": "window",
+    "promotion_eval_every": "eval_every",
+    "promotion_eval_tasks": "eval_tasks",
+}
+TEACHER_SETTINGS = {
+    "label_episodes": "label_episodes",
+    "teacher_inference": "inference",
+    "teacher_weights": "weights",
+    "retrieval_takeover": "retrieval_takeover",
+    "teacher_action_noise": "action_noise",
+    "teacher_search": "search",
 }
 
 
@@ -54,11 +90,82 @@ def dataclass_field_docs(cls: type) -> dict[str, str]:
 
 
 @dataclass(frozen=True)
+class PromotionConfig:
+    """When the curriculum moves on to the next stage.
+
+    Examples:
+        >>> from occrl.training.config import PromotionConfig
+        >>> PromotionConfig(rule="hybrid", eval_every=25).eval_tasks
+        30
+    """
+
+    rule: str = "learner"
+    """"hybrid" (the paper: hybrid 4x4 success on validation tasks > promote_threshold) or "learner"
+    (the learner's own success over its last promote_window training episodes; cheaper)."""
+    threshold: float = 0.8
+    """Success rate that promotes to the next stage."""
+    window: int = 300
+    """Training episodes the "learner" rule averages over."""
+    eval_every: int = 50
+    """Iterations between "hybrid" promotion checks (imitation or PPO, not the critic warm-up)."""
+    eval_tasks: int = 30
+    """Validation tasks per "hybrid" check (95 % interval about +-15 points at 30, +-8 at 100)."""
+
+
+@dataclass(frozen=True)
+class ImitationConfig:
+    """The imitation phase before PPO (beyond the paper: docs/decisions.md, "Training"): DAgger
+    with a :class:`~occrl.training.teachers.Teacher` that labels the learner's frames and acts in a
+    share ``beta`` of them.
+
+    Examples:
+        >>> from occrl.training.config import ImitationConfig
+        >>> from occrl.training.teachers import HierarchicalTeacher
+        >>> ImitationConfig(iterations=50, teacher=HierarchicalTeacher(action_noise=0.05)).to_dict()["teacher"]
+        {'name': 'hierarchical', 'action_noise': 0.05, 'label_episodes': 'all'}
+    """
+
+    iterations: int = 0
+    """Iterations of DAgger before PPO (0: PPO from the start)."""
+    teacher: Teacher = ScriptedTeacher()
+    """Who labels the learner's frames, with its own settings (occrl.training.teachers.TEACHERS)."""
+    beta_iters: int = 10
+    """The teacher acts with probability decaying from 1 to beta_min over these iterations (0:
+    beta_min from the start)."""
+    beta_min: float = 0.0
+    """The teacher keeps acting this often (per step; per episode for the teachers that act in whole episodes)."""
+    min_scale: float = 0.1
+    """Standard-deviation floor of the imitation likelihood."""
+    buffer_iters: int = 8
+    """DAgger aggregates the labelled data of this many iterations."""
+    updates: int = 0
+    """Gradient steps per iteration on the aggregate (0: epochs over the new batch only)."""
+
+    def validate(self, core: TrainConfig) -> None:
+        """The teacher's checks against the run's settings (``ValueError``)."""
+        self.teacher.validate(core)
+
+    def to_dict(self) -> dict:
+        settings = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "teacher"}
+        return {**settings, "teacher": {"name": self.teacher.name, **self.teacher.settings()}}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "ImitationConfig":
+        d = dict(d)
+        teacher = dict(d.pop("teacher", {"name": ScriptedTeacher.name}))
+        name = teacher.pop("name", None)
+        if name not in TEACHERS:
+            raise ValueError(f"imitation_teacher must be one of {tuple(TEACHERS)}, got {name!r}")
+        return cls(**d, teacher=TEACHERS[name](**teacher))
+
+
+@dataclass(frozen=True)
 class TrainConfig:
     """Everything that defines a training run (besides the seed and the run folder).
 
     ``frames_per_batch = num_envs * steps_per_env``; every iteration starts all episodes afresh
-    (``reset_at_each_iter``), which makes runs resumable exactly from a checkpoint.
+    (``reset_at_each_iter``), which makes runs resumable exactly from a checkpoint. A checkpoint
+    stores :meth:`to_dict` (nested); :meth:`from_dict` reads that or the flat names.
 
     Examples:
         >>> from occrl.training import TrainConfig
@@ -121,89 +228,17 @@ class TrainConfig:
     target_kl: float = 0.0
     """> 0: stop an iteration's PPO epochs once a minibatch's approximate KL exceeds 1.5 x this."""
 
-    # ---- imitation (beyond the paper: docs/decisions.md, "Training")
-    imitation_iters: int = 0
-    """Iterations of DAgger before PPO (0: PPO from the start)."""
-    imitation_teacher: str = "scripted"
-    """Who labels the learner's frames: "scripted" (the privileged scripted retriever), "clearing"
-    (the privileged clearing retriever, which acts in a share beta of the episodes as "scripted"
-    does, but labels only the frames from the first sight of the target on, so the learner keeps
-    its own search: "expert_weight"), "clearing-observed" (the same retriever deciding from the
-    observations alone, occrl.baselines.observed_clearing: the learner searches; from the first
-    sight of the target the teacher acts in a share beta of the episodes, and only the frames it
-    acted on are labels; collector "single"), "hybrid" (the
-    hybrid 4x4 planner on the current network labels, the learner acts: expert iteration),
-    "hybrid-acting" (that planner acts and labels, so the value learns the planner's own returns;
-    collector "single"), "hierarchical" (the OMPL hierarchical planner, observations only, acts in
-    a share beta of the episodes and labels every step of the others; collector "single") or
-    "self" (the learner acts and its own actions are the labels; needs label_episodes "success":
-    self-imitation, its successful episodes cloned)."""
-    label_episodes: str = "all"
-    """Which episodes' frames are imitation labels with the teachers whose labels are the actions
-    taken ("self", "hybrid-acting", "clearing-observed") and with "hierarchical": "all", or
-    "success" (only the frames of episodes that end in success within the batch; the others
-    still train the value and heat-map heads). With "hierarchical", "success" keeps only the
-    frames of the episodes the teacher acted in (its own successful demonstrations; its labels on
-    the learner's states are dropped). With "self" the cloned successes are a policy-gradient step
-    on the success probability (beyond the paper: docs/decisions.md, "Cloning only successes")."""
-    teacher_inference: str = "torch"
-    """Network inference of the hybrid-planner teachers ("hybrid", "hybrid-acting"): "torch" or
-    "onnxruntime" (pip install onnx onnxruntime; ~1.2x the labels per second, the same network to
-    float rounding, re-exported after every update). Like the device, it changes rounding only: a
-    run may resume under the other. Promotion checks always plan with torch, as evaluations do."""
-    teacher_weights: str = ""
-    """"hybrid-acting": plan with this fixed network (a weights file or a shipped name such as
-    "occnet-takeover"; it needs the heat-map head) instead of the live learner. The learner then
-    learns from the episodes of a planner that does not change, and may itself lack the heat-map
-    head (heatmap=False: the greedy / stochastic baselines' network trained on the same planner's
-    episodes as the full network). "": the live network (expert iteration)."""
-    retrieval_takeover: float = 0.0
-    """"hybrid-acting": the share of episodes (drawn per world and episode) in which a retriever
-    (takeover_retriever; the privileged scripted one by default) acts instead of the planner from
-    the first step whose observation shows the target (takeover_at) to the episode's end; its
-    actions are then the labels, along its own trajectory (occrl.training.dagger.RetrievalTakeover).
-    0: the planner acts throughout."""
-    teacher_action_noise: float = 0.0
-    """The "hierarchical" and "clearing-observed" teachers: where the teacher acts, Gaussian noise
-    of this standard deviation (action units) is added to its executed motion, the label staying
-    its decision (DART: demonstrations of recoveries from a learner's small errors; beyond the
-    paper, docs/decisions.md)."""
-    teacher_search: str = "learner"
-    """Who searches before the target is first seen when the "clearing-observed" teacher is drawn:
-    "learner" (the learner's own policy; only the teacher's retrieval frames are labels) or
-    "hierarchical" (the hierarchical planner's Search, observations only: sweeps from the nearer
-    end outside the shelf, stopping at the first detection, and the closest object rearranged where
-    a sweep finds nothing; then the clearing retriever, which has followed the whole episode; the
-    teacher acts and labels its drawn episodes from their start. The two together solve 86.5 % of
-    the held-out stage-2 tasks: scripts/handover.py --from hierarchical --to clearing-observed)."""
-    imitation_beta_iters: int = 10
-    """The teacher acts with probability decaying from 1 to imitation_beta_min over these iterations
-    (0: imitation_beta_min from the start)."""
-    imitation_beta_min: float = 0.0
-    """The teacher keeps acting this often (per step; per episode for "hierarchical")."""
-    imitation_min_scale: float = 0.1
-    """Standard-deviation floor of the imitation likelihood."""
-    imitation_buffer_iters: int = 8
-    """DAgger aggregates the labelled data of this many iterations."""
-    imitation_updates: int = 0
-    """Gradient steps per iteration on the aggregate (0: epochs over the new batch only)."""
+    imitation: ImitationConfig | None = None
+    """The imitation phase before PPO and its teacher (None: PPO from the start; the ``imitation_*``,
+    ``teacher_*``, ``label_episodes`` and ``retrieval_takeover`` options set it)."""
     critic_warmup_iters: int = 0
     """PPO iterations, after imitation, that train only the value (and heat-map) head."""
 
     # ---- curriculum
     start_stage: int = 1
     """Curriculum stage of a new run (1-3)."""
-    promotion: str = "learner"
-    """"hybrid" (the paper: hybrid 4x4 success on validation tasks > promote_threshold) or "learner"
-    (the learner's own success over its last promote_window training episodes; cheaper)."""
-    promote_threshold: float = 0.8
-    """Success rate that promotes to the next stage."""
-    promote_window: int = 300
-    """Training episodes the "learner" rule averages over."""
-    promotion_eval_every: int = 50
-    """Iterations between "hybrid" promotion checks (imitation or PPO, not the critic warm-up)."""
-    promotion_eval_tasks: int = 30
-    """Validation tasks per "hybrid" check (95 % interval about +-15 points at 30, +-8 at 100)."""
+    promotion: PromotionConfig = PromotionConfig()
+    """When the curriculum moves on (the ``promotion`` and ``promote_*`` / ``promotion_*`` options set it)."""
     replay_stage_workers: int = 0
     """Collector workers that keep collecting the previous stage after a promotion (collector
     "multi" or "ray", fewer than workers)."""
@@ -213,6 +248,11 @@ class TrainConfig:
     @property
     def frames_per_batch(self) -> int:
         return self.num_envs * self.steps_per_env
+
+    @property
+    def imitation_iterations(self) -> int:
+        """Iterations of the imitation phase (0 without one)."""
+        return 0 if self.imitation is None else self.imitation.iterations
 
     def validate(self) -> None:
         """Refuse settings that are out of range or do not go together (``ValueError`` naming what was
@@ -226,11 +266,12 @@ class TrainConfig:
                 ...
             ValueError: imitation_teacher='self' needs label_episodes='success': the learner's own actions of every episode as labels teach nothing (their expected gradient is zero)
         """
-        for name, allowed in SETTING_CHOICES.items():  # every string setting with a fixed set of values
-            if getattr(self, name) not in allowed:
-                raise ValueError(f"{name} must be one of {allowed}, got {getattr(self, name)!r}")
-        if self.promotion_eval_tasks < 1:
-            raise ValueError(f"promotion_eval_tasks must be >= 1, got {self.promotion_eval_tasks}")
+        flat = {"collector": self.collector, "optimizer": self.optimizer, "promotion": self.promotion.rule}
+        for name, value in flat.items():  # the core's string settings with a fixed set of values
+            if value not in SETTING_CHOICES[name]:
+                raise ValueError(f"{name} must be one of {SETTING_CHOICES[name]}, got {value!r}")
+        if self.promotion.eval_tasks < 1:
+            raise ValueError(f"promotion_eval_tasks must be >= 1, got {self.promotion.eval_tasks}")
         if self.replay_stage_workers < 0:
             raise ValueError(f"replay_stage_workers must be >= 0, got {self.replay_stage_workers}")
         if self.replay_stage_workers and (self.collector == "single" or self.replay_stage_workers >= self.workers):
@@ -238,49 +279,42 @@ class TrainConfig:
                 f"replay_stage_workers={self.replay_stage_workers} needs collector 'multi' or 'ray' and "
                 f"fewer than workers={self.workers} (got collector {self.collector!r})"
             )
-        if not 0.0 <= self.retrieval_takeover <= 1.0:
-            raise ValueError(f"retrieval_takeover must be a share in [0, 1], got {self.retrieval_takeover!r}")
-        if self.retrieval_takeover > 0 and self.imitation_teacher != "hybrid-acting":
-            raise ValueError(f"retrieval_takeover applies to imitation_teacher 'hybrid-acting', not {self.imitation_teacher!r}")
-        if self.label_episodes != "all" and self.imitation_teacher not in ("self", "hybrid-acting", "clearing-observed", "hierarchical"):
-            raise ValueError(
-                f"label_episodes={self.label_episodes!r} applies to the teachers whose labels are the actions taken "
-                f"('self', 'hybrid-acting', 'clearing-observed') and to 'hierarchical', not {self.imitation_teacher!r}"
-            )
-        if self.imitation_teacher == "self" and self.label_episodes != "success":
-            raise ValueError(
-                "imitation_teacher='self' needs label_episodes='success': the learner's own actions of every "
-                "episode as labels teach nothing (their expected gradient is zero)"
-            )
         if self.collector != "single" and (self.workers < 1 or self.num_envs % self.workers):
             raise ValueError(f"num_envs ({self.num_envs}) must be a multiple of workers ({self.workers}) with collector {self.collector!r}")
-        if self.teacher_weights and self.imitation_teacher != "hybrid-acting":
-            raise ValueError(f"teacher_weights applies to imitation_teacher 'hybrid-acting', not {self.imitation_teacher!r}")
-        if self.imitation_teacher in ("hybrid", "hybrid-acting") and not self.heatmap and not self.teacher_weights:
-            raise ValueError(
-                f"imitation_teacher={self.imitation_teacher!r} needs the heat-map head (the hybrid planner uses it), "
-                "or, for 'hybrid-acting', teacher_weights naming a fixed network with one to plan with"
-            )
-        if self.imitation_teacher in ("hybrid-acting", "hierarchical", "clearing-observed") and self.collector != "single":
-            raise ValueError(
-                f"imitation_teacher={self.imitation_teacher!r} needs collector 'single' (the teacher's network "
-                f"or episode memory lives in this process), got collector {self.collector!r}"
-            )
-        if self.teacher_action_noise > 0 and self.imitation_teacher not in ("hierarchical", "clearing-observed"):
-            raise ValueError(
-                f"teacher_action_noise applies to imitation_teacher 'hierarchical' or 'clearing-observed', not {self.imitation_teacher!r}"
-            )
-        if self.teacher_search != "learner" and self.imitation_teacher != "clearing-observed":
-            raise ValueError(f"teacher_search applies to imitation_teacher 'clearing-observed', not {self.imitation_teacher!r}")
-        if self.promotion == "hybrid" and not self.heatmap:
+        if self.promotion.rule == "hybrid" and not self.heatmap:
             raise ValueError("promotion='hybrid' needs the heat-map head (the hybrid planner uses it); use 'learner'")
+        if self.imitation is not None:
+            self.imitation.validate(self)
 
     def to_dict(self) -> dict:
-        return asdict(self)
+        """The settings as a checkpoint stores them (the imitation phase nested, with its teacher's)."""
+        core = {f.name: getattr(self, f.name) for f in fields(self) if f.name not in ("imitation", "promotion")}
+        promotion = {f.name: getattr(self.promotion, f.name) for f in fields(self.promotion)}
+        return {**core, "promotion": promotion, "imitation": None if self.imitation is None else self.imitation.to_dict()}
+
+    def flat_settings(self) -> dict:
+        """The settings by their flat names, one per ``occrl train`` option (``--imitation-iters``
+        for ``imitation.iterations``, ``--teacher-inference`` for the teacher's ``inference``); the
+        imitation and teacher settings a run does not use at their defaults.
+
+        Examples:
+            >>> from occrl.training import get_train_config
+            >>> flat = get_train_config("cpu").flat_settings()
+            >>> flat["imitation_iters"], flat["imitation_teacher"], flat["teacher_inference"]
+            (400, 'scripted', 'torch')
+        """
+        flat = {f.name: getattr(self, f.name) for f in fields(self) if f.name not in ("imitation", "promotion")}
+        flat |= {setting: getattr(self.promotion, name) for setting, name in PROMOTION_SETTINGS.items()}
+        imitation = self.imitation or ImitationConfig()
+        flat |= {setting: getattr(imitation, name) for setting, name in IMITATION_SETTINGS.items()}
+        flat["imitation_teacher"] = imitation.teacher.name
+        own = imitation.teacher.settings()
+        flat |= {setting: own.get(name, TEACHER_DEFAULTS[setting]) for setting, name in TEACHER_SETTINGS.items()}
+        return flat
 
     @classmethod
     def field_docs(cls) -> dict[str, str]:
-        """Each setting's docstring (the string under its field), by name: the help of the
+        """Each flat setting's docstring (:meth:`flat_settings`' names), by name: the help of the
         ``occrl train`` options.
 
         Examples:
@@ -288,83 +322,122 @@ class TrainConfig:
             >>> TrainConfig.field_docs()["lr"]
             'Learning rate.'
         """
-        return dataclass_field_docs(cls)
+        return {name: doc for name, (kind, doc) in flat_setting_kinds().items()}
+
+    @classmethod
+    def setting_types(cls) -> dict[str, str]:
+        """Each flat setting's type ("int", "float", "bool" or "str"), by name."""
+        return {name: kind for name, (kind, doc) in flat_setting_kinds().items()}
 
     @classmethod
     def from_dict(cls, d: dict) -> "TrainConfig":
-        """Settings from :meth:`to_dict` (e.g. a checkpoint's). Settings occrl has removed are
-        dropped where they were off, and refused with the version that had them otherwise."""
+        """Settings from :meth:`to_dict` (e.g. a checkpoint's) or by their flat names
+        (:meth:`flat_settings`; checkpoints written before the nested form, model cards' recipes).
+        Settings occrl has removed are dropped where they were off, and refused with the version
+        that had them otherwise (:data:`~occrl.training.removed_settings.REMOVED_SETTINGS`).
+
+        Examples:
+            >>> from occrl.training import TrainConfig
+            >>> cfg = TrainConfig.from_dict({"imitation_iters": 5, "imitation_teacher": "hybrid", "teacher_inference": "onnxruntime"})
+            >>> cfg.imitation.iterations, cfg.imitation.teacher
+            (5, HybridTeacher(inference='onnxruntime'))
+            >>> TrainConfig.from_dict(cfg.to_dict()) == cfg
+            True
+            >>> TrainConfig.from_dict({"teacher_search": "hierarchical"})
+            Traceback (most recent call last):
+                ...
+            ValueError: teacher_search applies to imitation_teacher 'clearing-observed', not 'scripted' (got teacher_search='hierarchical')
+        """
         d = drop_removed_settings(d)
-        names = {f.name for f in fields(cls)}
-        unknown = set(d) - names
+        if "imitation" in d:  # the nested form (to_dict)
+            if isinstance(d["imitation"], dict):
+                d["imitation"] = ImitationConfig.from_dict(d["imitation"])
+            if isinstance(d.get("promotion"), dict):
+                d["promotion"] = PromotionConfig(**d["promotion"])
+            unknown = set(d) - {f.name for f in fields(cls)}
+            if unknown:
+                raise ValueError(f"unknown training settings {sorted(unknown)}")
+            return cls(**d)
+        return cls.from_flat(d)
+
+    @classmethod
+    def from_flat(cls, d: dict) -> "TrainConfig":
+        """Settings by their flat names (:meth:`flat_settings`); the ones not given take their defaults."""
+        unknown = set(d) - set(flat_setting_kinds())
         if unknown:
             raise ValueError(f"unknown training settings {sorted(unknown)}")
-        return cls(**d)
-
-
-@dataclass(frozen=True)
-class RemovedSetting:
-    """A training setting occrl no longer has: the value that meant "off" (None: inert without the
-    others, any value accepted) and the commit of the last version that had it."""
-
-    off: object
-    commit: str
-    why: str
-
-
-_EXPERIMENT = "an experiment that made no shipped network (docs/decisions.md)"
-# Settings removed from the library: a stored config (a checkpoint's) that names one at its "off"
-# value reads as if it did not; any other value is refused, naming the commit that still has it.
-REMOVED_SETTINGS: dict[str, RemovedSetting] = {
-    **{
-        name: RemovedSetting(off, "eed1cea", "it only served experiments shown to hurt (docs/decisions.md)")
-        for name, off in (("ppo_bc_coeff", 0.0), ("ppo_bc_min_scale", None), ("freeze_policy_scale", False))
-    },
-    **{
-        name: RemovedSetting(off, "53b1240", _EXPERIMENT)
-        for name, off in (
-            ("detail_lr", 0.0),
-            ("teacher_roots", "own"),
-            ("teacher_to_the_end", False),
-            ("start_scenes", ""),
-            ("start_scenes_share", None),
-            ("task_copies", 1),
-            ("critic_to_trunk", True),
-            ("success_weighting", "episode"),
-            ("retrieval_labels", "planner"),
-            ("takeover_retriever", "scripted"),
-            ("takeover_at", "first-sight"),
-            ("teacher_label_kinds", "all"),
-            ("teacher_replan_inside", False),
-            ("teacher_roll_in", 0),
+        for name, allowed in SETTING_CHOICES.items():
+            if name in d and d[name] not in allowed:
+                raise ValueError(f"{name} must be one of {allowed}, got {d[name]!r}")
+        nested = {**IMITATION_SETTINGS, **PROMOTION_SETTINGS, **TEACHER_SETTINGS}
+        core = {name: value for name, value in d.items() if name not in nested}
+        promotion = PromotionConfig(**{name: d[setting] for setting, name in PROMOTION_SETTINGS.items() if setting in d})
+        teacher_cls = TEACHERS[core.pop("imitation_teacher", ScriptedTeacher.name)]
+        own = {f.name for f in fields(teacher_cls)}
+        teacher = {}
+        for setting, name in TEACHER_SETTINGS.items():
+            if setting not in d:
+                continue
+            if name in own:
+                teacher[name] = d[setting]
+            elif d[setting] != TEACHER_DEFAULTS[setting]:
+                users = " / ".join(repr(t) for t, c in TEACHERS.items() if name in {f.name for f in fields(c)})
+                raise ValueError(f"{setting} applies to imitation_teacher {users}, not {teacher_cls.name!r} (got {setting}={d[setting]!r})")
+        imitation = ImitationConfig(
+            **{name: d[setting] for setting, name in IMITATION_SETTINGS.items() if setting in d}, teacher=teacher_cls(**teacher)
         )
-    },
-}
+        return cls(**core, promotion=promotion, imitation=None if imitation == ImitationConfig() else imitation)
 
 
-def drop_removed_settings(stored: dict) -> dict:
-    """``stored`` without the settings of :data:`REMOVED_SETTINGS`; ``ValueError`` where one is
-    not at its "off" value, naming the commit whose occrl still has it.
+@lru_cache(maxsize=1)
+def flat_setting_kinds() -> dict[str, tuple[str, str]]:
+    """Each flat setting's type and docstring, in ``occrl train``'s order: the core settings, then
+    the imitation phase's and the teachers' (a teacher's setting documented by the first teacher
+    in :data:`TEACHERS` that has it, naming every teacher that does)."""
+    kinds = {}
+    for cls, settings in ((TrainConfig, None), (PromotionConfig, PROMOTION_SETTINGS), (ImitationConfig, IMITATION_SETTINGS)):
+        docs, types = dataclass_field_docs(cls), {f.name: str(f.type) for f in fields(cls)}
+        for setting, name in (settings or {n: n for n in types if n not in ("imitation", "promotion")}).items():
+            kinds[setting] = (types[name], docs[name])
+    teachers = "; ".join(f'"{name}": {doc_line(cls).rstrip(".")}' for name, cls in TEACHERS.items())
+    kinds["imitation_teacher"] = ("str", f"Who labels the learner's frames (occrl.training.teachers): {teachers}.")
+    for setting, name in TEACHER_SETTINGS.items():
+        users = [cls for cls in TEACHERS.values() if name in {f.name for f in fields(cls)}]
+        kind = next(str(f.type) for f in fields(users[0]) if f.name == name)
+        who = ", ".join(f'"{cls.name}"' for cls in users)
+        kinds[setting] = (kind, f"{dataclass_field_docs(users[0])[name]} (teacher {who})")
+    return kinds
 
-    Examples:
-        >>> from occrl.training.config import drop_removed_settings
-        >>> drop_removed_settings({"lr": 1e-3, "task_copies": 1})
-        {'lr': 0.001}
-        >>> drop_removed_settings({"task_copies": 4})
-        Traceback (most recent call last):
-            ...
-        ValueError: training setting task_copies=4 was removed from occrl (an experiment that made no shipped network (docs/decisions.md)); to run or resume with it, use the version that has it: git checkout 53b1240
-    """
-    kept = dict(stored)
-    for name, removed in REMOVED_SETTINGS.items():
-        if name in kept:
-            value = kept.pop(name)
-            if removed.off is not None and value != removed.off:
-                raise ValueError(
-                    f"training setting {name}={value!r} was removed from occrl ({removed.why}); "
-                    f"to run or resume with it, use the version that has it: git checkout {removed.commit}"
-                )
-    return kept
+
+def doc_line(cls: type) -> str:
+    """A class's docstring, whitespace collapsed."""
+    return " ".join((cls.__doc__ or "").split())
+
+
+# the flat value of each teacher setting for a teacher that does not have it
+TEACHER_DEFAULTS = {"label_episodes": "all", "teacher_inference": "torch", "teacher_weights": "", "retrieval_takeover": 0.0}
+TEACHER_DEFAULTS |= {"teacher_action_noise": 0.0, "teacher_search": "learner"}
+
+
+# settings that change where frames are computed but not which: a run may resume under another one
+RUNTIME_SETTINGS = {"collector": {"multi", "ray"}}
+# a run resumes on any device and teacher inference (they change float rounding, not the method)
+MACHINE_SETTINGS = ("device", "teacher_inference")
+
+
+def same_run_settings(saved: dict, current: dict) -> bool:
+    """Equal training settings (stored ones, :meth:`TrainConfig.to_dict`'s or flat), except a run
+    collected by "multi" may resume on "ray" and back, and on any device and teacher inference.
+    Settings added after a checkpoint was written take their defaults (the behaviour it ran with);
+    settings removed since are dropped where they were off (:meth:`TrainConfig.from_dict` refuses
+    them otherwise)."""
+    saved, current = TrainConfig.from_dict(saved).flat_settings(), TrainConfig.from_dict(current).flat_settings()
+    for key, interchangeable in RUNTIME_SETTINGS.items():
+        if saved.get(key) in interchangeable and current.get(key) in interchangeable:
+            saved, current = {**saved, key: None}, {**current, key: None}
+    for key in MACHINE_SETTINGS:
+        saved, current = {**saved, key: None}, {**current, key: None}
+    return saved == current
 
 
 def training_device(name: str) -> torch.device:

@@ -16,7 +16,7 @@ from torchrl.modules import set_recurrent_mode
 
 from occrl.modules import OccNet
 from occrl.objectives import PPOHeatmapLoss, heatmap_loss, imitation_nll
-from occrl.training.config import TrainConfig
+from occrl.training.config import ImitationConfig, TrainConfig
 from occrl.training.dagger_buffer import DaggerBuffer
 
 __all__ = ["Learner", "PPO_DIAGNOSTICS", "recurrent_layers_training"]
@@ -86,7 +86,9 @@ class Learner:
             self.optimizer = torch.optim.Adam(params, lr=config.lr)
         else:
             raise ValueError(f"optimizer must be 'rmsprop' or 'adam', got {config.optimizer!r}")
-        self.dagger = DaggerBuffer(config.imitation_buffer_iters)
+        # the imitation settings (their defaults for a run without an imitation phase)
+        self.imitation = config.imitation or ImitationConfig()
+        self.dagger = DaggerBuffer(self.imitation.buffer_iters)
 
     def on_device(self, td: TensorDictBase) -> TensorDictBase:
         return td if self.device.type == "cpu" else td.to(self.device)
@@ -113,7 +115,7 @@ class Learner:
 
     def update(self, data: TensorDictBase, phase: str) -> dict:
         """One iteration's optimisation on a batch (on the device), by phase: "imitation" (with
-        ``imitation_updates`` > 0: gradient steps on the DAgger aggregate, this batch added;
+        ``imitation.updates`` > 0: gradient steps on the DAgger aggregate, this batch added;
         else epochs over the batch), "critic_warmup" (the value head alone) or "ppo" (PPO +
         heat-map loss, stopped early past the KL target). Returns the mean of each loss term.
         """
@@ -126,9 +128,9 @@ class Learner:
         B = data.shape[0]
         sums: dict[str, float] = {}
         count = 0
-        if phase == "imitation" and c.imitation_updates > 0:
+        if phase == "imitation" and self.imitation.updates > 0:
             self.dagger.add(data if self.device.type == "cpu" else data.to("cpu"))  # the aggregate stays in CPU memory
-            for _ in range(c.imitation_updates):
+            for _ in range(self.imitation.updates):
                 terms = self.imitation_terms(self.on_device(self.dagger.sample(c.minibatch_envs)))
                 self.step(terms)
                 for k, v in terms.items():
@@ -182,7 +184,7 @@ class Learner:
         td = mb.copy()
         with set_recurrent_mode(True):
             td = self.net.trunk(td)
-        terms = {"loss_imitation": imitation_nll(self.net, td, c.imitation_min_scale)}
+        terms = {"loss_imitation": imitation_nll(self.net, td, self.imitation.min_scale)}
         terms["loss_critic"] = self.value_loss(td)
         if self.net.heatmap_head is not None and c.heatmap_coeff > 0:
             terms["loss_heatmap"] = c.heatmap_coeff * heatmap_loss(self.net.heatmap_head, td, c.heatmap_fraction)

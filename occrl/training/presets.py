@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from occrl.training.config import TrainConfig
+from occrl.training.config import ImitationConfig, PromotionConfig, TrainConfig
 
 __all__ = ["TRAIN_PRESETS", "get_train_config"]
 
@@ -20,11 +20,7 @@ _CPU = TrainConfig(
     preset="cpu",
     **_CPU_MACHINE,
     lr=3e-4,
-    imitation_iters=400,
-    imitation_beta_iters=50,
-    imitation_beta_min=0.3,
-    imitation_buffer_iters=16,
-    imitation_updates=16,
+    imitation=ImitationConfig(iterations=400, beta_iters=50, beta_min=0.3, buffer_iters=16, updates=16),
     batch_norm_frames=400,
 )
 
@@ -32,7 +28,7 @@ _CPU = TrainConfig(
 TRAIN_PRESETS: dict[str, TrainConfig] = {
     # The paper (Sec. V / VI-B): RMSProp 5e-5, c1 0.5, c2 0.01, c3 1.0, gamma 0.995, 1,500 frames
     # per batch, promotion by hybrid 4x4 success.
-    "paper": TrainConfig(promotion="hybrid"),
+    "paper": TrainConfig(promotion=PromotionConfig(rule="hybrid")),
     # A 2-core CPU machine: Adam, a DAgger warm start on the scripted retriever, then PPO.
     "cpu": _CPU,
     # PPO from a warm-started network (--init-weights occnet): small steps, no entropy bonus, a
@@ -46,7 +42,7 @@ TRAIN_PRESETS: dict[str, TrainConfig] = {
         critic_warmup_iters=10,
         target_kl=0.02,
         batch_norm_frames=0,
-        promotion="hybrid",
+        promotion=PromotionConfig(rule="hybrid"),
     ),
     # The curriculum continued by imitation from a warm-started network (--init-weights occnet
     # --start-stage 2; choose the teacher with --imitation-teacher), the teacher acting on 30 % of
@@ -56,27 +52,41 @@ TRAIN_PRESETS: dict[str, TrainConfig] = {
         _CPU,
         preset="cpu-curriculum",
         lr=3e-5,
-        imitation_iters=100_000,
-        imitation_beta_iters=0,
+        imitation=replace(_CPU.imitation, iterations=100_000, beta_iters=0),
         batch_norm_frames=0,
-        promotion="hybrid",
-        promotion_eval_every=25,
+        promotion=PromotionConfig(rule="hybrid", eval_every=25),
         replay_stage_workers=1,
     ),
-    # A seconds-long configuration for tests and smoke runs.
-    "tiny": TrainConfig(preset="tiny", num_envs=4, steps_per_env=8, epochs=1, minibatch_envs=2, promote_window=8, imitation_updates=3),
+    # A seconds-long configuration for tests and smoke runs (no imitation unless a run asks for
+    # iterations of it: then 3 updates per iteration).
+    "tiny": TrainConfig(
+        preset="tiny",
+        num_envs=4,
+        steps_per_env=8,
+        epochs=1,
+        minibatch_envs=2,
+        promotion=PromotionConfig(window=8),
+        imitation=ImitationConfig(updates=3),
+    ),
 }
 
 
 def get_train_config(preset: str = "paper", **overrides) -> TrainConfig:
-    """The preset's :class:`TrainConfig` with ``overrides`` applied (``ValueError`` for an unknown preset).
+    """The preset's :class:`TrainConfig` with ``overrides`` applied, by their flat names
+    (:meth:`TrainConfig.flat_settings`: ``occrl train``'s options), or ``imitation=`` a whole
+    :class:`ImitationConfig` (``ValueError`` for an unknown preset or setting).
 
     Examples:
         >>> from occrl.training import get_train_config
-        >>> cfg = get_train_config("tiny", lr=1e-3)
+        >>> cfg = get_train_config("tiny", lr=1e-3, imitation_iters=5, imitation_teacher="hierarchical", teacher_action_noise=0.05)
         >>> cfg.preset, cfg.lr, cfg.frames_per_batch
         ('tiny', 0.001, 32)
+        >>> cfg.imitation.iterations, cfg.imitation.updates, cfg.imitation.teacher
+        (5, 3, HierarchicalTeacher(action_noise=0.05, label_episodes='all'))
     """
     if preset not in TRAIN_PRESETS:
         raise ValueError(f"unknown training preset {preset!r}; available: {sorted(TRAIN_PRESETS)}")
-    return replace(TRAIN_PRESETS[preset], **overrides)
+    if "imitation" in overrides:
+        imitation = overrides.pop("imitation")
+        return replace(get_train_config(preset, **overrides), imitation=imitation)
+    return TrainConfig.from_flat({**TRAIN_PRESETS[preset].flat_settings(), **overrides})

@@ -36,16 +36,10 @@ from occrl.planners import HybridPlanner
 from occrl.modules.weights import load_weights, save_weights
 from occrl.training.checkpoint import load_checkpoint, save_checkpoint
 from occrl.training.collection import TrainingCollector
-from occrl.training.config import TrainConfig, training_device
+from occrl.training.config import TrainConfig, same_run_settings, training_device
 from occrl.training.cpu_time import tree_cpu_seconds
 from occrl.training.curriculum import Curriculum
-from occrl.training.dagger import (
-    ExpertMixPolicy,
-    RetrievalTakeover,
-    label_with_expert,
-    label_with_planner,
-    since_first_sight,
-)
+from occrl.training.dagger import ExpertMixPolicy
 from occrl.training.learner import Learner
 from occrl.training.run_folder import (
     CHECKPOINT,
@@ -54,11 +48,9 @@ from occrl.training.run_folder import (
     WARM_START_WEIGHTS,
     WEIGHTS,
     file_sha256,
-    same_run_settings,
     truncate_metrics,
 )
-from occrl.training.stats import episode_stats, successful_episode_frames
-from occrl.training.teachers import collection_policy, make_expert, teacher_network
+from occrl.training.stats import episode_stats
 
 __all__ = ["Trainer", "hybrid_validation_success", "VALIDATION_SEED_BASE"]
 
@@ -116,7 +108,10 @@ class Trainer:
         promotion_check: Callable[..., float] = hybrid_validation_success,
     ) -> None:
         config.validate()
-        teacher_net = teacher_network(config.teacher_weights) if config.teacher_weights else None
+        # the teacher of the imitation phase (None without one); a network it plans with is loaded
+        # (and checked) whenever the settings name one
+        self.teacher = config.imitation.teacher if config.imitation_iterations > 0 else None
+        fixed_net = config.imitation.teacher.fixed_network() if config.imitation is not None else None
         self.config = config
         self.promotion_check = promotion_check
         self.ray_address = ray_address  # where the "ray" collector runs (None: a local Ray runtime)
@@ -132,11 +127,6 @@ class Trainer:
         torch.manual_seed(self.seed)
         self.device = training_device(config.device)
         self.net = make_occnet(config.net_preset, heatmap=config.heatmap).eval()
-        if teacher_net is not None and teacher_net.config.image_size != self.net.config.image_size:
-            raise ValueError(
-                f"teacher_weights {config.teacher_weights!r} reads {teacher_net.config.image_size} px images, "
-                f"net_preset {config.net_preset!r} {self.net.config.image_size} px; they must see the same images"
-            )
         # collection, planner teachers and promotion checks act on the CPU: on self.acting_net,
         # the learner itself on a CPU run, else a CPU copy synchronised after every update
         self.acting_net = self.net
@@ -145,13 +135,13 @@ class Trainer:
             self.net.to(self.device)
         self.learner = Learner(self.net, config, self.device)
         self.loss, self.optimizer, self.dagger = self.learner.loss, self.learner.optimizer, self.learner.dagger
-        self.curriculum = Curriculum(config.start_stage, config.promote_threshold, config.promote_window)
+        self.curriculum = Curriculum(config.start_stage, config.promotion.threshold, config.promotion.window)
         self.iteration = 0
         self.saved_iteration: int | None = None  # the iteration of the checkpoint on disk (None: none yet)
         self.frames = 0
         self.train_seconds = 0.0
         self.cpu_seconds: float | None = 0.0  # CPU of the run's process tree (tree_cpu_seconds); None: not measured from the start
-        self.expert = make_expert(config, self.acting_net, self.seed, teacher_net)
+        self.expert = self.teacher.make_expert(self.acting_net, self.seed, fixed_net) if self.teacher is not None else None
         for leftover in self.run_dir.glob("*.tmp"):  # a write a crash interrupted; its target is intact
             leftover.unlink()
         ckpt = self.run_dir / CHECKPOINT
@@ -166,7 +156,7 @@ class Trainer:
             self.cpu_seconds = st.get("cpu_seconds")  # checkpoints before it was measured: unknown
             self.saved_iteration = self.iteration
             self.curriculum.load_state_dict(st["curriculum"])
-            if self.iteration < config.imitation_iters and config.imitation_updates > 0:
+            if self.iteration < config.imitation_iterations and config.imitation.updates > 0:
                 dagger_file = self.run_dir / (st.get("dagger_data") or DAGGER_DATA)  # checkpoints before 0.2: one fixed name
                 if dagger_file.exists():
                     self.dagger.load(dagger_file)
@@ -216,22 +206,23 @@ class Trainer:
         return loggers
 
     def _beta(self) -> float:
-        """Probability that the expert acts: 1 -> ``imitation_beta_min`` over the first
-        ``imitation_beta_iters`` iterations of the warm start, 0 afterwards (PPO)."""
-        c = self.config
-        if self.iteration >= c.imitation_iters or c.imitation_teacher in ("hybrid", "self"):
+        """The share the teacher acts in (its :meth:`~occrl.training.teachers.Teacher.beta`) during
+        the imitation phase, 0 afterwards (PPO)."""
+        if self.teacher is None or self.iteration >= self.config.imitation_iterations:
             return 0.0
-        if c.imitation_teacher == "hybrid-acting":
-            return 1.0
-        if c.imitation_beta_iters <= 0:
-            return c.imitation_beta_min
-        return max(c.imitation_beta_min, 1.0 - self.iteration / c.imitation_beta_iters)
+        return self.teacher.beta(self.iteration, self.config.imitation)
+
+    def _collection_policy(self):
+        """What the collector runs: the learner's policy, mixed with or labelled by the teacher."""
+        if self.teacher is None:
+            return self.acting_net.policy
+        return self.teacher.collection_policy(self.acting_net.policy, self.expert)
 
     def _phase(self) -> str:
         c = self.config
-        if self.iteration < c.imitation_iters:
+        if self.iteration < c.imitation_iterations:
             return "imitation"
-        if self.iteration < c.imitation_iters + c.critic_warmup_iters:
+        if self.iteration < c.imitation_iterations + c.critic_warmup_iters:
             return "critic_warmup"
         return "ppo"
 
@@ -266,7 +257,7 @@ class Trainer:
                 )
 
     def _collect_once(self) -> TensorDictBase:
-        self.collection.ensure(self.curriculum.stage, lambda: collection_policy(self.config, self.acting_net.policy, self.expert))
+        self.collection.ensure(self.curriculum.stage, self._collection_policy)
         it_seed = self.seed * 1_000_003 + self.iteration
         torch.manual_seed(it_seed)
         beta = self._beta()
@@ -283,7 +274,7 @@ class Trainer:
     def _hybrid_success(self) -> float:
         """The promotion statistic of the current network and stage (``promotion_check``)."""
         c = self.config
-        rate = float(self.promotion_check(self.acting_net, self.curriculum.stage, c.promotion_eval_tasks, c.noise))
+        rate = float(self.promotion_check(self.acting_net, self.curriculum.stage, c.promotion.eval_tasks, c.noise))
         self.acting_net.eval()
         logger.info("hybrid 4x4 validation success at iteration %d (stage %d): %.2f", self.iteration, self.curriculum.stage, rate)
         return rate
@@ -297,8 +288,8 @@ class Trainer:
         if max_seconds is not None:
             left = max(0.0, max_seconds - (time.time() - start_wall))
             fields["left"] = f"{int(left // 3600)}:{int(left % 3600 // 60):02d}h"
-        if c.promotion == "hybrid" and phase in ("imitation", "ppo"):
-            fields["check_in"] = f"{c.promotion_eval_every - self.iteration % c.promotion_eval_every}it"
+        if c.promotion.rule == "hybrid" and phase in ("imitation", "ppo"):
+            fields["check_in"] = f"{c.promotion.eval_every - self.iteration % c.promotion.eval_every}it"
         return fields
 
     def train(self, iterations: int | None = None, max_seconds: float | None = None) -> dict:
@@ -325,30 +316,8 @@ class Trainer:
                 beta = self._beta()
                 data = self._collect()
                 t_collect = time.time() - t0
-                if phase == "imitation" and c.imitation_teacher == "hybrid":
-                    label_with_planner(data, self.acting_net, seed=self.seed * 1_000_003 + self.iteration, inference=c.teacher_inference)
-                elif phase == "imitation" and c.imitation_teacher == "hybrid-acting":
-                    data.set("expert_action", data.get("action").clone())  # the planner acted
-                elif phase == "imitation" and c.imitation_teacher == "self":
-                    data.set("expert_action", data.get("action").clone())  # the learner acted
-                elif c.imitation_teacher == "hierarchical":
-                    # labelled while collecting (OnlineTeacherPolicy), in every phase; with successes
-                    # only, its own episodes only (below: those that succeed)
-                    if phase == "imitation" and c.label_episodes == "success":
-                        data.set("expert_weight", data.get("teacher_acts").reshape(data.shape).to(torch.float32))
-                elif phase == "imitation" and c.imitation_teacher == "clearing-observed":
-                    # labelled while collecting; only the teacher's own retrievals are labels: on the
-                    # learner's states its corrections are mostly "back out first" (docs/decisions.md)
-                    data.set("expert_weight", data.get("teacher_acts").reshape(data.shape).to(torch.float32))
-                elif phase == "imitation":
-                    label_with_expert(data, self.expert)
-                    if c.imitation_teacher == "clearing":  # retrieval labels only: the learner keeps its search
-                        data.set("expert_weight", since_first_sight(data).to(torch.float32))
-                if phase == "imitation" and c.label_episodes == "success":
-                    successes = successful_episode_frames(data).to(torch.float32)
-                    if "expert_weight" in data.keys():
-                        successes = successes * data.get("expert_weight")
-                    data.set("expert_weight", successes)
+                if phase == "imitation":  # the teacher's labels
+                    self.teacher.label(data, self.expert, self.acting_net, seed=self.seed * 1_000_003 + self.iteration)
                 consistent, unfinished = False, self.iteration + 1
                 batch = self.learner.on_device(data)  # the collected batch (CPU) where the learner is
                 compute_advantages(self.net, batch, c.gamma, c.gae_lambda)
@@ -360,19 +329,19 @@ class Trainer:
                 stats = episode_stats(data)
                 promoted = False
                 if beta == 0.0:
-                    promoted = self.curriculum.record(stats["success"], promote=c.promotion == "learner")
+                    promoted = self.curriculum.record(stats["success"], promote=c.promotion.rule == "learner")
                 self.iteration += 1
                 self.frames += data.numel()
                 dt = time.time() - t0
                 hybrid_rate = None
-                if c.promotion == "hybrid" and phase in ("imitation", "ppo") and self.iteration % c.promotion_eval_every == 0:
+                if c.promotion.rule == "hybrid" and phase in ("imitation", "ppo") and self.iteration % c.promotion.eval_every == 0:
                     hybrid_rate = self._hybrid_success()
-                    if hybrid_rate > c.promote_threshold:
+                    if hybrid_rate > c.promotion.threshold:
                         promoted = self.curriculum.promote()
                 self.train_seconds += time.time() - t0
                 if self.cpu_seconds is not None:
                     self.cpu_seconds += tree_cpu_seconds() - cpu0
-                if phase == "imitation" and self.iteration == c.imitation_iters:
+                if phase == "imitation" and self.iteration == c.imitation_iterations:
                     save_weights(self.run_dir / WARM_START_WEIGHTS, self.net, {"train_preset": c.preset, **self.state()})
                 summary = {
                     "iteration": self.iteration,
@@ -394,8 +363,8 @@ class Trainer:
                     summary["cpu_hours"] = self.cpu_seconds / 3600
                 if hybrid_rate is not None:
                     summary["hybrid_success_rate"] = hybrid_rate
-                if isinstance(self.expert, RetrievalTakeover):  # the share of frames the retriever acted in
-                    summary["takeover_share"] = self.expert.frames_taken_over / max(self.expert.frames, 1)
+                if self.teacher is not None:
+                    summary.update(self.teacher.summary(self.expert))
                 summary.update(self.collection.per_stage_success(data, episode_stats))
                 self._log(summary)
                 consistent = True
@@ -452,7 +421,7 @@ class Trainer:
         are older data sets deleted. A run killed at any moment resumes from the last complete
         checkpoint with the data set that belongs to it (tests/training/test_kill_resume.py)."""
         dagger_name = None
-        if self.iteration < self.config.imitation_iters and self.config.imitation_updates > 0:
+        if self.iteration < self.config.imitation_iterations and self.config.imitation.updates > 0:
             dagger_name = f"dagger_buffer-{self.iteration:07d}.pt"
             self.dagger.save(self.run_dir / dagger_name)
         save_checkpoint(

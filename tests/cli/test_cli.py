@@ -209,30 +209,29 @@ def test_sweep_shows_one_bar_and_ends_with_its_tables(tmp_path, capsys):
 
 
 def test_every_training_setting_is_documented_and_settable_from_the_command_line():
-    from dataclasses import fields
 
     from occrl.cli import make_parser
     from occrl.training import TrainConfig
 
     docs = TrainConfig.field_docs()
-    names = [f.name for f in fields(TrainConfig)]
-    assert set(docs) == set(names) and all(len(d) > 5 for d in docs.values())  # a docstring per field
+    kinds = TrainConfig.setting_types()  # the flat settings, one option each (TrainConfig.flat_settings)
+    assert set(docs) == set(kinds) and all(len(d) > 5 for d in docs.values())  # a docstring per setting
     samples = {bool: ("--no-{}", False), int: ("--{}", "3"), float: ("--{}", "0.5"), str: ("--{}", None)}
     from occrl.modules import PRESETS
     from occrl.training.config import SETTING_CHOICES
 
-    for f in fields(TrainConfig):
-        if f.name == "preset":
+    for name, type_name in kinds.items():
+        if name == "preset":
             continue
-        kind = {"bool": bool, "int": int, "float": float, "str": str}[f.type] if isinstance(f.type, str) else f.type
+        kind = {"bool": bool, "int": int, "float": float, "str": str}[type_name]
         flag, value = samples[kind]
-        flag = flag.format(f.name.replace("_", "-"))
+        flag = flag.format(name.replace("_", "-"))
         if kind is str:
-            value = (list(PRESETS) if f.name == "net_preset" else SETTING_CHOICES.get(f.name, ("cpu",)))[-1]
+            value = (list(PRESETS) if name == "net_preset" else SETTING_CHOICES.get(name, ("cpu",)))[-1]
         argv = ["train", "--run-dir", "x", flag] + ([] if kind is bool else [value])
         args = make_parser().parse_args(argv)
         expected = {bool: False, int: 3, float: 0.5, str: value}[kind]
-        assert getattr(args, f.name) == expected, f.name
+        assert getattr(args, name) == expected, name
 
 
 def test_train_options_reach_the_config(tmp_path, capsys):

@@ -38,7 +38,7 @@ def test_an_explicit_cpu_device_trains_and_a_run_resumes_on_any_device(tmp_path)
     tr.close()
     weights = [p.detach().clone() for p in tr.net.parameters()]
     # the same run folder resumes under another device setting (a machine setting, not a training one)
-    from occrl.training.run_folder import same_run_settings
+    from occrl.training.config import same_run_settings
 
     assert same_run_settings(cfg.to_dict(), get_train_config("tiny", device="cuda:0").to_dict())
     assert not same_run_settings(cfg.to_dict(), get_train_config("tiny", lr=1.0).to_dict())

@@ -199,7 +199,7 @@ def test_hybrid_acting_teacher_with_fixed_weights_teaches_a_network_without_heat
     assert all(torch.equal(v, teacher.state_dict()[k]) for k, v in tr.expert.net.state_dict().items())  # fixed
     assert any(not torch.equal(v, before[k]) for k, v in tr.net.state_dict().items())  # the learner learned
     for settings, match in (
-        (dict(imitation_teacher="hybrid-acting", heatmap=False), "or, for 'hybrid-acting', teacher_weights"),
+        (dict(imitation_teacher="hybrid-acting", heatmap=False), "or teacher_weights naming a fixed network"),
         (dict(imitation_teacher="scripted", teacher_weights=str(path)), "teacher_weights applies to"),
         (dict(imitation_teacher="hybrid-acting", teacher_weights=str(tmp_path / "none.pt")), "neither a weights file"),
         (dict(imitation_teacher="hybrid-acting", teacher_weights="occnet-noheatmap"), "has no heat-map head"),

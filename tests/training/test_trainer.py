@@ -4,7 +4,7 @@ import re
 import pytest
 import torch
 
-from occrl.training import CheckpointError, Curriculum, Trainer, get_train_config, load_checkpoint, load_weights
+from occrl.training import CheckpointError, Curriculum, TrainConfig, Trainer, get_train_config, load_checkpoint, load_weights
 from occrl.training.config import SETTING_CHOICES
 from occrl.modules import make_occnet
 from occrl.modules.weights import save_weights
@@ -202,8 +202,10 @@ def test_hybrid_promotion_rule(tmp_path):
 
 def test_checkpoints_from_before_a_new_setting_still_resume(tmp_path):
     def drop_settings(ckpt):
+        flat = TrainConfig.from_dict(ckpt["train_config"]).flat_settings()  # as written before the nested form
         for key in ("promotion", "promotion_eval_every", "promotion_eval_tasks"):
-            del ckpt["train_config"][key]  # as written before these settings existed
+            del flat[key]  # and before these settings existed
+        ckpt["train_config"] = flat
 
     cfg = get_train_config("tiny")
     checkpoint_as_written_before(tmp_path, cfg, drop_settings)
