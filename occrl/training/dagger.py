@@ -7,16 +7,14 @@ probability ``beta`` so the learner sees successful endings too; ``beta`` decays
 that, like the learner, sees only detections and searches for a hidden target.
 :class:`OnlineTeacherPolicy` labels while collecting, for a teacher that keeps a memory of the
 episode (the hierarchical planner: accumulated detections, its stage and its current plan), which
-must see every observation of the learner's episode in order. :class:`RetrievalTakeover` lets the
-privileged scripted or clearing retriever (or the hierarchical planner) act in a share of the
-episodes from the first sight of the target (or from the start), so that its labels lie on its
-own, consistent trajectories. :func:`since_first_sight` marks the frames a retrieval teacher labels
-(``imitation_teacher="clearing"``).
+must see every observation of the learner's episode in order. :class:`RetrievalTakeover` lets a
+privileged retriever act in a share of the episodes from the first sight of the target, so that
+its labels lie on its own, consistent trajectories. :func:`since_first_sight` marks the frames a
+retrieval teacher labels (the "clearing" teacher). The teachers that use them:
+:mod:`occrl.training.teachers`.
 """
 
 from __future__ import annotations
-
-import copy
 
 import torch
 from tensordict import TensorDictBase
@@ -26,20 +24,14 @@ from occrl.baselines.scripted import ScriptedRetriever
 from occrl.envs import world_constants as C
 
 __all__ = [
-    "TAKEOVER_MOMENTS",
     "ExpertMixPolicy",
     "OnlineTeacherPolicy",
     "RetrievalTakeover",
     "label_with_expert",
     "label_with_planner",
-    "relabel_retrieval",
     "since_first_sight",
     "target_in_view",
 ]
-
-#: When :class:`RetrievalTakeover`'s retriever takes over: at the first sight of the target, or at
-#: the episode start (a whole episode, search included).
-TAKEOVER_MOMENTS = ("first-sight", "start")
 
 
 class ExpertMixPolicy(TensorDictModuleBase):
@@ -142,15 +134,11 @@ class OnlineTeacherPolicy(ExpertMixPolicy):
         label_kinds: tuple[str, ...] | None = None,
         from_first_sight: bool = False,
         action_noise: float = 0.0,
-        roll_in: int = 0,
     ) -> None:
         super().__init__(policy, teacher, beta)
         if not 0.0 <= float(action_noise) <= 1.0:
             raise ValueError(f"action_noise must be in [0, 1] (a standard deviation in action units), got {action_noise!r}")
-        if isinstance(roll_in, bool) or not isinstance(roll_in, int) or roll_in < 0:
-            raise ValueError(f"roll_in must be an integer >= 0 (the most steps the learner acts before the teacher), got {roll_in!r}")
         self.action_noise = float(action_noise)
-        self.roll_in = roll_in
         if "privileged" in teacher.in_keys:
             raise ValueError("the online teacher must read observations only; its in_keys contain 'privileged'")
         if label_kinds is not None and not hasattr(teacher, "last_action_kinds"):
@@ -161,8 +149,6 @@ class OnlineTeacherPolicy(ExpertMixPolicy):
         self.from_first_sight = bool(from_first_sight)
         self._teacher_acts: torch.Tensor | None = None  # per world: the teacher acts in this episode
         self._seen: torch.Tensor | None = None  # per world: the target has been in view in this episode
-        self._step: torch.Tensor | None = None  # per world: steps taken in this episode before this one
-        self._teacher_from: torch.Tensor | None = None  # per world: the step from which the teacher acts (roll_in)
 
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
         tensordict = self.policy(tensordict)
@@ -178,14 +164,6 @@ class OnlineTeacherPolicy(ExpertMixPolicy):
             seen_before = torch.zeros_like(in_view) if self._seen is None or self._seen.shape != in_view.shape else self._seen
             self._seen = in_view | (seen_before & ~is_init)
             acts = acts & self._seen
-        if self.roll_in > 0:  # the learner acts first, for a drawn number of steps
-            if self._step is None or self._step.shape != is_init.shape:
-                self._step = torch.zeros(is_init.shape, dtype=torch.long)
-                self._teacher_from = torch.zeros(is_init.shape, dtype=torch.long)
-            self._step = torch.where(is_init, torch.zeros_like(self._step), self._step + 1)
-            drawn = torch.randint(0, self.roll_in + 1, is_init.shape)
-            self._teacher_from = torch.where(is_init, drawn, self._teacher_from)
-            acts = acts & (self._step >= self._teacher_from)
         acts = acts.unsqueeze(-1)
         tensordict.set("expert_action", label)
         if self.label_kinds is not None:
@@ -206,24 +184,16 @@ class RetrievalTakeover(TensorDictModuleBase):
     """The planner acts; in a share of the episodes a retriever takes over from the first step
     whose observation shows the target (:func:`target_in_view`) to the end of the episode. Who may
     take over is drawn per world at each episode start (probability ``share``, from a generator
-    reseeded with :meth:`reseed`); the planner decides only for the worlds it still acts in.
+    reseeded with :meth:`reseed`); the planner decides only for the worlds it still acts in, the
+    retriever for the taken-over worlds together. The retriever decides from each step alone (the
+    privileged scripted or clearing retriever; one with an episode memory, which reads
+    ``"is_init"``, is refused).
 
-    The retriever is a privileged one, scripted or clearing (called on the taken-over worlds
-    together), or a decision maker with an episode memory, one that reads ``"is_init"`` (the hierarchical
-    planner): it is then copied once per world, each copy sees its world's observations from the
-    hand-over on, the first flagged as an episode start (``"is_init"``), as
-    :class:`occrl.baselines.handover.SearchThenRetrieve` hands over; copy ``b`` is reseeded with
-    ``seed * 1000 + b``.
-
-    ``at="start"``: the retriever takes over at the episode start instead (it acts for the whole
-    episode, search included, in the drawn share; the planner in the others), so that a teacher
-    that searches, such as the hierarchical planner, shows its search on its own trajectory.
-
-    For ``imitation_teacher="hybrid-acting"`` with ``retrieval_takeover > 0``: the executed action
-    is the label, so the retrieval labels are the retriever's own trajectory (an approach kept
-    over steps, backed out of only when it fails), not its answers on states the planner reached
-    (``retrieval_labels="scripted"``, which made the planner worse: docs/decisions.md).
-    ``frames_taken_over`` / ``frames`` count the steps since :meth:`reset`.
+    For the "hybrid-acting" teacher with ``retrieval_takeover > 0``: the executed action is the
+    label, so the retrieval labels are the retriever's own trajectory (an approach kept over
+    steps, backed out of only when it fails), not its answers on states the planner reached (which
+    made the planner worse: docs/decisions.md). ``frames_taken_over`` / ``frames`` count the steps
+    since :meth:`reset`.
 
     Examples:
         >>> import torch
@@ -242,17 +212,13 @@ class RetrievalTakeover(TensorDictModuleBase):
         (1, 2)
     """
 
-    def __init__(
-        self, planner: TensorDictModuleBase, retriever: TensorDictModuleBase, share: float, seed: int = 0, at: str = "first-sight"
-    ) -> None:
+    def __init__(self, planner: TensorDictModuleBase, retriever: TensorDictModuleBase, share: float, seed: int = 0) -> None:
         super().__init__()
         if not 0.0 <= float(share) <= 1.0:
             raise ValueError(f"share must be in [0, 1], got {share!r}")
-        if at not in TAKEOVER_MOMENTS:
-            raise ValueError(f"at must be one of {TAKEOVER_MOMENTS}, got {at!r}")
-        self.at = at
+        if "is_init" in retriever.in_keys:
+            raise ValueError(f"the retriever must decide from each step alone; {type(retriever).__name__} keeps an episode memory")
         self.planner, self.retriever, self.share = planner, retriever, float(share)
-        self.remembers = "is_init" in retriever.in_keys  # an episode memory: one copy per world
         self.in_keys = list(
             dict.fromkeys(["is_init", *planner.in_keys, *retriever.in_keys, ("objects", "detected"), ("objects", "type_id"), "target_type"])
         )
@@ -261,34 +227,19 @@ class RetrievalTakeover(TensorDictModuleBase):
         self.generator = torch.Generator().manual_seed(self.seed)
         self.frames = self.frames_taken_over = 0
         self._may = self._taken = None  # per world: may the retriever take over / has it
-        self._copies: list[TensorDictModuleBase] = []  # per world, for a retriever with a memory
 
     def reseed(self, seed: int) -> None:
         self.seed = int(seed)
         self.generator.manual_seed(self.seed)
         if hasattr(self.planner, "reseed"):
             self.planner.reseed(seed)
-        self._reseed_copies()
-
-    @property
-    def world_retrievers(self) -> list[TensorDictModuleBase]:
-        """The per-world copies of a retriever with an episode memory (empty before the first
-        take-over, and always for a retriever without one)."""
-        return list(self._copies)
-
-    def _reseed_copies(self) -> None:
-        for b, retriever in enumerate(self._copies):
-            if hasattr(retriever, "reseed"):
-                retriever.reseed(self.seed * 1000 + b)
 
     def sync_weights(self) -> None:
         self.planner.sync_weights()
 
     def reset(self) -> None:
-        """Forget every world's episode, the retriever's plan caches and memories, and the counts."""
+        """Forget every world's episode, the retriever's plan caches and the counts."""
         self.retriever.reset()
-        for retriever in self._copies:
-            retriever.reset()
         self._may = self._taken = None
         self.frames = self.frames_taken_over = 0
 
@@ -300,22 +251,13 @@ class RetrievalTakeover(TensorDictModuleBase):
             self._may, self._taken = torch.zeros(n, dtype=torch.bool), torch.zeros(n, dtype=torch.bool)
         draw = torch.rand(n, generator=self.generator) < self.share
         self._may = torch.where(is_init, draw, self._may)
-        was_taken = self._taken & ~is_init
-        self._taken = was_taken | (self._may & (target_in_view(flat) if self.at == "first-sight" else is_init))
+        self._taken = (self._taken & ~is_init) | (self._may & target_in_view(flat))
         action = torch.zeros(n, C.ACTION_DIM)
         planned = torch.nonzero(~self._taken).reshape(-1)
         if planned.numel():
             action[planned] = self.planner(flat[planned].select(*self.planner.in_keys).copy()).get("action").reshape(-1, C.ACTION_DIM)
         taken = torch.nonzero(self._taken).reshape(-1)
-        if taken.numel() and self.remembers:
-            if len(self._copies) != n:
-                self._copies = [copy.deepcopy(self.retriever) for _ in range(n)]
-                self._reseed_copies()
-            for b in taken.tolist():
-                obs = flat[b : b + 1].select(*self.retriever.in_keys).copy()
-                obs.set("is_init", torch.tensor([[not bool(was_taken[b])]]).reshape(obs.get("is_init").shape))
-                action[b] = self._copies[b](obs).get("action").reshape(C.ACTION_DIM)
-        elif taken.numel():
+        if taken.numel():
             action[taken] = self.retriever(flat[taken].select(*self.retriever.in_keys).copy()).get("action").reshape(-1, C.ACTION_DIM)
         self.frames += n
         self.frames_taken_over += int(taken.numel())
@@ -381,18 +323,6 @@ def since_first_sight(data: TensorDictBase) -> torch.Tensor:
         before = seen[..., t - 1] & ~starts[..., t] if t else torch.zeros_like(shown[..., 0])
         seen[..., t] = before | shown[..., t]
     return seen
-
-
-def relabel_retrieval(data: TensorDictBase, expert: ScriptedRetriever) -> TensorDictBase:
-    """Replace ``"expert_action"`` by the privileged scripted retriever's action on the frames
-    whose observation shows the target (:func:`target_in_view`); the other labels stay. The
-    retriever's plan caches are cleared first, so the labels depend on this batch alone."""
-    shown = target_in_view(data)
-    expert.reset()
-    if shown.any():
-        scripted = label_with_expert(data.clone(), expert).get("expert_action")
-        data.set("expert_action", torch.where(shown.unsqueeze(-1), scripted, data.get("expert_action")))
-    return data
 
 
 def label_with_planner(data: TensorDictBase, net, seed: int = 0, m: int = 4, h: int = 4, inference: str = "torch") -> TensorDictBase:

@@ -6,7 +6,7 @@ import numpy as np
 import torch
 from tensordict import TensorDictBase
 
-__all__ = ["episode_stats", "successful_episode_frames", "task_success_weights"]
+__all__ = ["episode_stats", "successful_episode_frames"]
 
 
 def episode_stats(data: TensorDictBase) -> dict:
@@ -69,45 +69,3 @@ def successful_episode_frames(data: TensorDictBase) -> torch.Tensor:
         out[..., t] = ending
         ending = ending & ~starts[..., t]  # the frame before a start belongs to another episode
     return out
-
-
-def task_success_weights(data: TensorDictBase, task_copies: int) -> torch.Tensor:
-    """Per frame of a [B, T] batch whose consecutive groups of ``task_copies`` rows run the same
-    tasks (``ShelfEnv(task_copies=...)``): 1 / (the successes among the group's episodes of the
-    same ordinal, i.e. the same task) for the frames of an episode that ends in success within
-    the batch, 0 elsewhere: a solved task's successful episodes share one episode's weight,
-    however many copies solved it.
-
-    Examples:
-        >>> from tensordict import TensorDict
-        >>> from occrl.training.stats import task_success_weights
-        >>> done = torch.tensor([[0, 1], [0, 1], [0, 1], [0, 1]], dtype=torch.bool).unsqueeze(-1)
-        >>> success = torch.tensor([[0, 1], [0, 1], [0, 1], [0, 0]], dtype=torch.bool).unsqueeze(-1)
-        >>> is_init = torch.tensor([[1, 0]] * 4, dtype=torch.bool).unsqueeze(-1)
-        >>> data = TensorDict({"is_init": is_init, "next": {"done": done, "success": success}}, batch_size=[4, 2])
-        >>> task_success_weights(data, 2)  # task 1: two successes; task 2: one
-        tensor([[0.5000, 0.5000],
-                [0.5000, 0.5000],
-                [1.0000, 1.0000],
-                [0.0000, 0.0000]])
-    """
-    if isinstance(task_copies, bool) or not isinstance(task_copies, (int, np.integer)) or task_copies < 1:
-        raise ValueError(f"task_copies must be an int >= 1, got {task_copies!r}")
-    if data.batch_dims != 2:
-        raise ValueError(f"expected a [worlds, time] batch, got batch shape {tuple(data.shape)} (flatten the workers first)")
-    B, T = data.shape
-    task_copies = int(task_copies)
-    if B % task_copies:
-        raise ValueError(f"the batch's {B} rows are not groups of task_copies={task_copies}")
-    succeeded = successful_episode_frames(data)
-    starts = data.get("is_init").reshape(B, T).clone()
-    starts[:, 0] = True
-    ordinal = starts.long().cumsum(-1) - 1  # the episode each frame belongs to, counted along its row
-    rows = torch.arange(B).unsqueeze(-1).expand(B, T)
-    episode_success = torch.zeros(B, int(ordinal.max()) + 1)
-    episode_success.index_put_((rows, ordinal), succeeded.float(), accumulate=True)
-    episode_success = (episode_success > 0).float()
-    per_task = episode_success.reshape(B // task_copies, task_copies, -1).sum(1, keepdim=True)
-    per_task = per_task.expand(-1, task_copies, -1).reshape(B, -1)
-    weight = torch.where(episode_success > 0, 1.0 / per_task.clamp_min(1.0), torch.zeros(()))
-    return weight.gather(1, ordinal)

@@ -158,54 +158,6 @@ def test_weighted_imitation_averages_over_labelled_frames():
     assert torch.allclose(weighted, first_two) and not torch.allclose(weighted, full)
 
 
-def test_the_hierarchical_planner_takes_over_with_a_memory_per_world():
-    """RetrievalTakeover with a retriever that remembers the episode: one copy per world, fed that
-    world's observations (observation keys only) from the first sight of the target on, the first
-    flagged as an episode start; the planner acts before."""
-    from occrl.planners import HybridPlanner
-    from occrl.training.dagger import RetrievalTakeover, since_first_sight
-
-    torch.manual_seed(0)
-    net = make_occnet("paper").eval()
-    env = make_env(batch_size=4, stage=2, seed=1).append_transform(net.make_primer())
-    mix = RetrievalTakeover(HybridPlanner(net, m=2, h=2), RecordingPlanner(plan_seconds=0.2, follow_tolerance=TOLERANCE), share=1.0, seed=3)
-    assert mix.remembers
-    data = env.rollout(6, mix, break_when_any_done=False)
-    taken = since_first_sight(data)
-    assert taken.any() and not taken.all()  # some worlds search first
-    assert mix.frames_taken_over == int(taken.sum()) and mix.frames == data.numel()
-    assert len(mix.world_retrievers) == 4 and all(c is not mix.retriever for c in mix.world_retrievers)
-    for b, copied in enumerate(mix.world_retrievers):
-        if not taken[b].any():
-            assert copied.episodes == []  # never called
-            continue
-        since = int(taken[b].flip(0).cumprod(0).sum())  # frames taken over at the end of the roll-out
-        assert copied.episodes[0].step == since  # its episode started at the hand-over
-        assert not any("privileged" in str(k) for k in copied.seen_keys)
-    assert [c.seed for c in mix.world_retrievers] == [3000, 3001, 3002, 3003]
-
-
-def test_a_takeover_at_the_start_hands_whole_episodes_to_the_retriever(tmp_path):
-    """at="start": in the drawn share the retriever acts from the episode's first step (its episode
-    is the world's), the planner throughout the others."""
-    from occrl.planners import HybridPlanner
-    from occrl.training.dagger import RetrievalTakeover
-
-    torch.manual_seed(0)
-    net = make_occnet("paper").eval()
-    env = make_env(batch_size=4, stage=2, seed=1).append_transform(net.make_primer())
-    retriever = HierarchicalPlanner(plan_seconds=0.2, follow_tolerance=TOLERANCE)
-    mix = RetrievalTakeover(HybridPlanner(net, m=2, h=2), retriever, share=0.5, seed=0, at="start")
-    data = env.rollout(4, mix, break_when_any_done=False)
-    assert not data["is_init"][:, 1:].any()  # one episode per world in these 4 steps
-    whole = [b for b, copied in enumerate(mix.world_retrievers) if copied.episodes]
-    assert 0 < len(whole) < 4  # both kinds of world at share 0.5 (seed 0)
-    assert all(mix.world_retrievers[b].episodes[0].step == 4 for b in whole)  # from the first step
-    assert mix.frames_taken_over == 4 * len(whole) and mix.frames == 16
-    with pytest.raises(ValueError, match="at must be one of"):
-        RetrievalTakeover(HybridPlanner(net, m=2, h=2), retriever, share=0.5, at="midway")
-
-
 def test_the_hierarchical_teachers_own_successes_only(tmp_path):
     """label_episodes="success" with the hierarchical teacher: only the frames of the episodes it
     acted in and that succeed within the batch stay labels (its own successful demonstrations)."""
@@ -224,3 +176,14 @@ def test_the_hierarchical_teachers_own_successes_only(tmp_path):
     assert bool((acted * succeeded).sum() > 0)  # the teacher solved some of its episodes
     assert bool(((acted == 0) & (succeeded == 1)).any())  # and the learner some of its own: not labels
     assert torch.equal(stored, acted * succeeded)
+
+
+def test_a_retriever_with_an_episode_memory_cannot_take_over():
+    """RetrievalTakeover calls its retriever on the taken-over worlds together, so the retriever
+    must decide from each step alone; one that remembers the episode is refused."""
+    from occrl.planners import HybridPlanner
+    from occrl.training.dagger import RetrievalTakeover
+
+    net = make_occnet("paper").eval()
+    with pytest.raises(ValueError, match="HierarchicalPlanner keeps an episode memory"):
+        RetrievalTakeover(HybridPlanner(net, m=2, h=2), HierarchicalPlanner(plan_seconds=0.2, follow_tolerance=TOLERANCE), share=0.5)

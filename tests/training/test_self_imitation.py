@@ -6,7 +6,7 @@ from tensordict import TensorDict
 
 from occrl.pretrained import weights_file
 from occrl.training import Trainer, get_train_config
-from occrl.training.stats import successful_episode_frames, task_success_weights
+from occrl.training.stats import successful_episode_frames
 
 
 def test_successful_episode_frames_mark_the_frames_of_episodes_that_end_in_success():
@@ -54,34 +54,6 @@ def test_label_episodes_is_checked_against_the_teacher(tmp_path):
         Trainer(get_train_config("tiny", imitation_iters=2, imitation_teacher="self"), tmp_path / "a", progress=False)
     with pytest.raises(ValueError, match="not 'scripted'"):
         Trainer(get_train_config("tiny", imitation_iters=2, label_episodes="success"), tmp_path / "b", progress=False)
-
-
-def test_task_success_weights_weigh_every_solved_task_alike():
-    """Rows 0-1 and 2-3 run the same tasks; episode ordinals pair the copies' episodes."""
-    T = 6
-    done = torch.zeros(4, T, 1, dtype=torch.bool)
-    success = torch.zeros(4, T, 1, dtype=torch.bool)
-    starts = torch.zeros(4, T, 1, dtype=torch.bool)
-    starts[:, 0] = True
-    done[0, 1] = success[0, 1] = True  # task A: both copies succeed, the first one twice
-    starts[0, 2] = True
-    done[0, 4] = success[0, 4] = True  # its second task B: solved by this copy only
-    starts[0, 5] = True  # a third episode, cut off
-    done[1, 3] = success[1, 3] = True
-    starts[1, 4] = True  # the second copy's task B, cut off
-    done[2, 5] = True  # task C: one copy fails, the other succeeds
-    done[3, 5] = success[3, 5] = True
-    data = TensorDict({"is_init": starts, "next": {"done": done, "success": success}}, batch_size=[4, T])
-    weights = task_success_weights(data, 2)
-    assert weights.tolist() == [
-        [0.5, 0.5, 1.0, 1.0, 1.0, 0.0],
-        [0.5, 0.5, 0.5, 0.5, 0.0, 0.0],
-        [0.0] * 6,
-        [1.0] * 6,
-    ]
-    assert torch.equal(task_success_weights(data, 1) > 0, successful_episode_frames(data))  # one copy: the successes, weight 1
-    with pytest.raises(ValueError, match="not groups of task_copies=3"):
-        task_success_weights(data, 3)
 
 
 def test_graded_weights_count_across_minibatches():
