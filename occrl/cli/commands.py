@@ -106,8 +106,8 @@ def config_listing(config: TrainConfig, given: Sequence[str] = ()) -> str:
     """
     from occrl.training.presets import TRAIN_PRESETS
 
-    preset = TRAIN_PRESETS[config.preset]
-    settings = config.to_dict()
+    preset = TRAIN_PRESETS[config.preset].flat_settings()  # by the options' names
+    settings = config.flat_settings()
     flags = []
     for name in [name for name in settings if name in given]:  # in the settings' order
         flag, value = "--" + name.replace("_", "-"), settings[name]
@@ -115,7 +115,7 @@ def config_listing(config: TrainConfig, given: Sequence[str] = ()) -> str:
     options = f" with {' '.join(flags)}" if flags else ""
     lines = [f"training settings of preset {config.preset}{options} ({config.frames_per_batch} frames per iteration):"]
     for name, value in settings.items():
-        mark = f"   (option; preset {config.preset}: {getattr(preset, name)!r})" if name in given else ""
+        mark = f"   (option; preset {config.preset}: {preset[name]!r})" if name in given else ""
         lines.append(f"  {name:<24} {value!r}{mark}")
     return "\n".join(lines)
 

@@ -215,25 +215,24 @@ def add_train_settings(
     order, or all but ``skip``), its help the setting's docstring with ``preset``'s value as the
     default; the parsed value is None where the option is not given. ``docs``: the settings'
     docstrings when already read (:meth:`~occrl.training.TrainConfig.field_docs`)."""
-    from dataclasses import fields
-
     from occrl.modules import PRESETS
     from occrl.training.config import SETTING_CHOICES, TrainConfig
 
     docs = docs if docs is not None else TrainConfig.field_docs()
-    by_name = {f.name: f for f in fields(TrainConfig)}
-    for name in names if names is not None else [n for n in by_name if n not in skip]:
-        f, value = by_name[name], getattr(preset, name)
+    kinds = TrainConfig.setting_types()  # the flat settings, one option each (TrainConfig.flat_settings)
+    values = preset.flat_settings()
+    for name in names if names is not None else [n for n in kinds if n not in skip]:
+        kind, value = kinds[name], values[name]
         flag = "--" + name.replace("_", "-")
         shown = ("on" if value else "off") if isinstance(value, bool) else (repr(value) if value == "" else value)
         text = f"{plain_text(docs[name])} (default: {plain_text(str(shown))})"
-        if f.type in (bool, "bool"):
+        if kind == "bool":
             group.add_argument(flag, dest=name, action=argparse.BooleanOptionalAction, default=None, help=text)
         elif name == "start_stage":
             group.add_argument(flag, dest=name, type=int, choices=[1, 2, 3], default=None, help=text)
-        elif f.type in (int, "int"):
+        elif kind == "int":
             group.add_argument(flag, dest=name, type=SETTING_TYPES.get(name, NON_NEGATIVE), default=None, help=text)
-        elif f.type in (float, "float"):
+        elif kind == "float":
             group.add_argument(flag, dest=name, type=SETTING_TYPES.get(name, NON_NEGATIVE_NUMBER), default=None, help=text)
         else:
             choices = PRESETS if name == "net_preset" else SETTING_CHOICES.get(name)
