@@ -21,6 +21,7 @@ def test_presets_are_unchanged():
     assert preset_fingerprints() == recorded
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize("method,stage,seed", EPISODES)
 def test_seeded_episode_is_unchanged(method, stage, seed):
     key = f"{method}/stage{stage}/seed{seed}"

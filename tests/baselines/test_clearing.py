@@ -80,6 +80,7 @@ def test_retrieves_a_visible_target_from_an_empty_shelf_as_the_scripted_retrieve
     assert clearing["next", "success"].any() and np.array_equal(clearing["action"].numpy(), scripted["action"].numpy())
 
 
+@pytest.mark.integration
 def test_success_on_a_few_stage2_seeds_is_above_the_scripted_retriever():
     seeds = list(range(20000, 20020))
     clearing = summarize(run_episodes(ClearingRetriever(), task_scenes(2, seeds), seeds, batch_size=20))

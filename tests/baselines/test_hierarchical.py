@@ -51,6 +51,7 @@ def test_retrieves_a_visible_target_from_an_empty_shelf():
     assert planner.planning_seconds < min(spent, 0.05) and planner.last_plans == []
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize("seed", [0, 1])
 def test_hidden_target_is_found_after_rearranging_the_occluder(seed):
     env = make_env(batch_size=1, scenes=[scene([OCCLUDER, HIDDEN_TARGET])], heatmap_target=False)

@@ -190,6 +190,7 @@ def test_bench_names_the_available_benchmarks(capsys):
     assert "no benchmark 'no_such_benchmark'" in err and "env_throughput" in err
 
 
+@pytest.mark.integration
 def test_train_ends_with_a_one_screen_summary(tmp_path, capsys):
     assert main(["train", "--preset", "tiny", "--run-dir", str(tmp_path / "run"), "--iterations", "2", "--no-progress"]) == 0
     out = capsys.readouterr().out

@@ -1,5 +1,6 @@
 """occrl export: a run's weights (latest or end of warm start) with a model card from the file itself."""
 
+import pytest
 import json
 
 import torch
@@ -8,6 +9,7 @@ from occrl.cli import main
 from occrl.training import Trainer, get_train_config, load_weights
 
 
+@pytest.mark.integration
 def test_export_the_warm_start_weights_with_their_own_card(tmp_path):
     run = tmp_path / "run"
     trainer = Trainer(get_train_config("tiny", imitation_iters=2, imitation_beta_iters=1), run, seed=0, progress=False, tensorboard=False)
@@ -45,6 +47,7 @@ def test_export_the_warm_start_weights_with_their_own_card(tmp_path):
     assert main(["export", "--run-dir", str(run), "--name", "mystery", "--preset", "tiny", "--dest", str(dest)]) == 2
 
 
+@pytest.mark.integration
 def test_a_run_started_from_other_weights_names_them_in_its_card(tmp_path):
     from occrl.modules import make_occnet
     from occrl.training import save_weights

@@ -37,6 +37,7 @@ def test_the_head_agrees_with_each_arbiter_through_contact_and_release():
     assert answers == [False, True, True, False, True, False]
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize("noise", [0.0, 0.15])
 def test_worlds_step_as_with_each_arbiter_bit_for_bit(noise, monkeypatch):
     answers = []

@@ -54,6 +54,7 @@ def test_vector_env_batches_the_shelves_and_resets_finished_ones():
     assert np.array_equal(again["pixels"], first["pixels"])
 
 
+@pytest.mark.integration
 def test_stable_baselines3_ppo_trains_on_it():
     pytest.importorskip("stable_baselines3")
     import runpy

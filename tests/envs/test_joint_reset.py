@@ -18,6 +18,7 @@ def test_the_layout_check_passes_on_the_installed_pymunk():
     assert joint_reset.AVAILABLE  # else the worlds silently fall back to new joints (slower)
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize("noise", [0.0, 0.15])
 def test_kept_joints_step_as_new_joints_bit_for_bit(noise, monkeypatch):
     kept = _episodes(noise)

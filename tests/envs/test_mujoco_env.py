@@ -192,6 +192,7 @@ def test_nan_action_raises_and_no_world_moves():
     assert out[:, 1].tolist() == pytest.approx([y + C.MAX_FORWARD for y in td["gripper_pose"][:, 1].tolist()], abs=2e-3)
 
 
+@pytest.mark.integration
 def test_importing_occrl_envs_does_not_need_mujoco():
     code = (
         "import sys; sys.modules['mujoco'] = None; sys.modules['dm_control'] = None\n"

@@ -54,6 +54,7 @@ def test_malformed_scenes_are_refused_with_a_message(x, y, corruption):
     assert words in str(info.value)
 
 
+@pytest.mark.integration
 @settings(max_examples=40, deadline=None)
 @given(
     st.lists(st.floats(-1e6, 1e6, allow_nan=False), min_size=8, max_size=8), st.sampled_from([torch.float32, torch.float64, torch.int64])

@@ -17,6 +17,7 @@ def _outcomes(results):
     return [(r.seed, r.objects, r.success, r.dropped, r.actions) for r in results]  # wall time differs
 
 
+@pytest.mark.integration
 def test_ray_backend_matches_local_for_the_same_seeds():
     import ray
 

@@ -46,6 +46,7 @@ def test_mujoco_frames_show_the_gripper_camera():
     assert frame(td).shape[1] > frame(plain).shape[1] + 200  # a third panel: the camera image
 
 
+@pytest.mark.integration
 def test_replicate_0_is_what_the_recorded_results_ran():
     import json
     from pathlib import Path
@@ -62,6 +63,7 @@ def test_replicate_0_is_what_the_recorded_results_ran():
     assert [(r.seed, r.success, r.actions) for r in again] == [(e["seed"], e["success"], e["actions"]) for e in recorded["episodes"][:8]]
 
 
+@pytest.mark.integration
 def test_a_replicate_draws_the_decision_makers_randomness_anew_on_the_same_tasks():
     seeds = SEEDS[:6]
     default = run_tasks("stochastic", 2, seeds, batch=6, progress=False)

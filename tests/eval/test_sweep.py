@@ -6,6 +6,7 @@ from occrl.eval.runner import run_tasks, summarize, wilson_interval
 from occrl.eval.sweep import noise_sweep_objects, run_sweep
 
 
+@pytest.mark.integration
 def test_tiny_sweep_writes_points_table_and_figure_and_resumes(tmp_path):
     values = {"clutter": [1.0, 2.0], "noise": [0.0, 0.1]}
     out = run_sweep(["scripted"], tmp_path, tasks=3, first_seed=123, values=values, batch=3, progress=False)
@@ -29,6 +30,7 @@ def test_noise_sweep_object_counts_are_fixed_by_seed_and_cover_1_to_10():
     assert set(counts) == set(range(1, 11))
 
 
+@pytest.mark.integration
 def test_results_do_not_depend_on_the_number_of_workers():
     seeds = list(range(40, 46))
     one = run_tasks("scripted", 1, seeds, batch=3, workers=1, progress=False)
@@ -43,6 +45,7 @@ def test_wilson_interval():
     assert summarize([])["tasks"] == 0
 
 
+@pytest.mark.integration
 def test_a_point_extended_by_more_seeds_equals_the_point_run_at_once(tmp_path):
     values = {"clutter": [2.0]}
     run_sweep(["stochastic-gen"], tmp_path / "grown", tasks=2, first_seed=200, sweeps=("clutter",), values=values, batch=3, progress=False)
@@ -66,6 +69,7 @@ def test_a_point_extended_by_more_seeds_equals_the_point_run_at_once(tmp_path):
     assert grown["tasks"] == 5 and grown["success_rate"] == once["success_rate"]
 
 
+@pytest.mark.integration
 def test_film_strips_replay_the_sweep_episodes_of_the_hybrid_planner(tmp_path):
     from occrl.eval.sweep import sweep_films
 
@@ -120,6 +124,7 @@ def test_the_command_line_runs_the_clutter_sweep_alone_at_the_noise_it_is_given(
     assert [(c["sweeps"], c["clutter_noise"]) for c in calls] == [(("clutter",), 0.15), (("clutter", "noise"), 0.0)]
 
 
+@pytest.mark.integration
 def test_a_point_records_its_network_and_is_never_extended_with_another(tmp_path):
     """A sweep point records the network its method decided with (its own name and the SHA-256 of
     the weights); extending it with other weights, or after the default network changed, is refused."""

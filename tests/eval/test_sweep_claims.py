@@ -1,3 +1,4 @@
+import pytest
 import json
 import subprocess
 import sys
@@ -39,6 +40,7 @@ def _spread(tmp_path, rows) -> dict:
     return {cells[0]: cells[3] for cells in rows if len(cells) == 4}
 
 
+@pytest.mark.integration
 def test_a_sweep_shaped_like_the_papers_agrees_with_every_claim(tmp_path):
     rows = []
     for sweep, values in (("clutter", [1.0, 10.0]), ("noise", [0.0, 0.25])):
@@ -63,6 +65,7 @@ def test_a_sweep_shaped_like_the_papers_agrees_with_every_claim(tmp_path):
     assert verdicts["success falls with noise"] == "agrees"
 
 
+@pytest.mark.integration
 def test_a_baseline_clearly_above_the_hybrid_is_a_disagreement(tmp_path):
     rows = [
         _row("hybrid-4x4", "clutter", 1.0, 0.5),
@@ -74,6 +77,7 @@ def test_a_baseline_clearly_above_the_hybrid_is_a_disagreement(tmp_path):
     assert verdicts["hybrid (4x4) beats every baseline"].startswith("disagrees (2 pairs clearly lower)")
 
 
+@pytest.mark.integration
 def test_methods_on_the_same_tasks_are_compared_by_mcnemar_on_the_sweeps_episodes(tmp_path):
     # 100 tasks at one point: hybrid-4x4 solves 80, hybrid-lim-4x4 solves the same 80 but 10 of
     # them swapped for 10 others (10 / 10 exclusive: p = 1); hybrid-2x2 solves 60 of 4x4's 80 (20 / 0)
@@ -103,6 +107,7 @@ def test_methods_on_the_same_tasks_are_compared_by_mcnemar_on_the_sweeps_episode
     assert _spread(tmp_path, rows)["larger m x h helps"].startswith("4x4 against 2x2: beyond the spread (pooled 95 % intervals")
 
 
+@pytest.mark.integration
 def test_means_of_points_extended_to_different_task_counts_use_the_tasks_all_ran(tmp_path):
     # hybrid-4x4's point holds 150 tasks (its first 100 with 80 solved, all of the 50 added),
     # 2x2's and 6x6's the first 100: the m x h means compare the 100 tasks all three ran

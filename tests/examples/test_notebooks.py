@@ -13,6 +13,7 @@ def test_there_are_three_notebooks():
     assert [p.name[:2] for p in NOTEBOOKS] == ["01", "02", "03"]
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.stem)
 def test_notebook_runs_top_to_bottom(path, tmp_path, monkeypatch):
     nb = nbformat.read(path, as_version=4)

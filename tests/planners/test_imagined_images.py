@@ -30,6 +30,7 @@ def _visited_observations(stage: int, noise: float, seed: int, steps: int, reset
             td = env.reset(td)
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize(
     "stage,noise,seed,reset_done",
     [(2, 0.0, 0, False), (2, 0.15, 1, True), (3, 0.0, 2, True)],
@@ -129,6 +130,7 @@ def test_world_pool_worlds_step_as_newly_built_ones_bit_for_bit():
     assert copy.deepcopy(pool).take([states[0]])[0] is not world  # copies start empty
 
 
+@pytest.mark.integration
 def test_world_pool_worlds_that_take_other_objects_step_as_newly_built_ones_bit_for_bit():
     from collections import defaultdict
 

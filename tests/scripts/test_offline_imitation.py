@@ -1,5 +1,6 @@
 """scripts/offline_imitation.py: fits the data run's labels, resumes to the same weights, refuses a data run it cannot use."""
 
+import pytest
 import json
 import subprocess
 import sys
@@ -26,6 +27,7 @@ def _fit(data: Path, out: Path, steps: int) -> str:
     return _run("scripts/offline_imitation.py", *args, "--out", str(out)).stdout
 
 
+@pytest.mark.integration
 def test_fit_lowers_the_validation_nll_and_resumes_exactly(tmp_path):
     data = tmp_path / "data"
     _data_run(data, buffer_iters=10)
@@ -75,6 +77,7 @@ def test_fit_lowers_the_validation_nll_and_resumes_exactly(tmp_path):
     assert moved and all(torch.allclose(average[k], (three[k] + six[k]) / 2) for k in moved)
 
 
+@pytest.mark.integration
 def test_a_data_run_that_dropped_iterations_is_refused(tmp_path):
     data = tmp_path / "data"
     _data_run(data, buffer_iters=1)
@@ -82,6 +85,7 @@ def test_a_data_run_that_dropped_iterations_is_refused(tmp_path):
     assert bad.returncode != 0 and "holds 1 of the run's 2 iterations" in bad.stderr
 
 
+@pytest.mark.integration
 def test_first_iterations_reads_the_start_of_a_data_run_and_refuses_more_than_it_has(tmp_path):
     data = tmp_path / "data"
     _data_run(data, buffer_iters=10)
@@ -93,6 +97,7 @@ def test_first_iterations_reads_the_start_of_a_data_run_and_refuses_more_than_it
     assert bad.returncode != 0 and "has collected only 2 iterations" in bad.stderr
 
 
+@pytest.mark.integration
 def test_data_runs_of_the_same_settings_are_fitted_together_and_others_refused(tmp_path):
     first, second, other = tmp_path / "first", tmp_path / "second", tmp_path / "other"
     _data_run(first, 10)
@@ -150,6 +155,7 @@ def test_takeover_table_counts_each_demonstration_by_the_teachers_first_frame():
     assert len(lines) == 5 and lines[4].startswith("(0 labelled episodes began before")
 
 
+@pytest.mark.integration
 def test_heatmap_coeff_trains_the_heatmap_head_on_the_stored_targets_and_old_fits_resume(tmp_path):
     data = tmp_path / "data"
     _data_run(data, 10, "--heatmap-coeff", "0")  # as the demonstrations' data runs: no heat-map term

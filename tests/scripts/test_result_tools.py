@@ -39,6 +39,7 @@ def _result(path: Path, method: str, stage: int, outcomes: list[bool]) -> Path:
     return path
 
 
+@pytest.mark.integration
 def test_perception_identity_passes_on_itself_and_fails_on_a_changed_render(tmp_path):
     out = _run("scripts/perception_identity.py", "--reference", str(ROOT), "--batches", "2")
     assert out.startswith("identical:")
@@ -57,6 +58,7 @@ def test_perception_identity_passes_on_itself_and_fails_on_a_changed_render(tmp_
     assert proc.returncode == 1 and "differs" in proc.stdout
 
 
+@pytest.mark.integration
 def test_results_table_compares_two_runs_task_by_task(tmp_path):
     a = _result(tmp_path / "a.json", "hybrid-4x4", 2, [True, True, True, False])
     b = _result(tmp_path / "b.json", "hybrid-4x4", 2, [True, False, False, True])
@@ -65,6 +67,7 @@ def test_results_table_compares_two_runs_task_by_task(tmp_path):
     assert "4 tasks in both: solved 3 / 2; only by the first 2, only by the second 1; exact McNemar p = 1.000" in out
 
 
+@pytest.mark.integration
 def test_timing_table_splits_each_task_into_planning_and_execution(tmp_path):
     out = tmp_path / "timing.json"
     text = _run(
@@ -92,6 +95,7 @@ def test_timing_table_splits_each_task_into_planning_and_execution(tmp_path):
     assert _run("scripts/timing_table.py", "--table", str(out)) == text.split("episodes that differ")[0]
 
 
+@pytest.mark.integration
 def test_sweep_compare_counts_the_tasks_each_folder_alone_solved(tmp_path):
     for name, wins in (("a", {1, 2, 3}), ("b", {2, 3, 4})):
         (tmp_path / name / "points").mkdir(parents=True)
@@ -108,6 +112,7 @@ def test_sweep_compare_counts_the_tasks_each_folder_alone_solved(tmp_path):
     assert "| 1-5 | 500 | 498 / 475 | 23 / 0 |" in out and "| 6-10 | 500 | 444 / 398 | 47 / 1 |" in out
 
 
+@pytest.mark.integration
 def test_planner_vs_policy_pairs_each_network_and_fits_the_line(tmp_path):
     sys.path.insert(0, str(ROOT / "scripts"))
     try:
@@ -143,6 +148,7 @@ def test_planner_vs_policy_pairs_each_network_and_fits_the_line(tmp_path):
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+@pytest.mark.integration
 def test_episode_film_films_the_evaluations_episode(tmp_path):
     """The film's episode is the evaluation's: the same outcome and length as ``occrl eval`` on that task seed."""
     from PIL import Image

@@ -38,6 +38,7 @@ def test_a_child_process_counts_while_it_runs_and_after_it_ended():
     assert tree_cpu_seconds() - tree0 >= 0.5
 
 
+@pytest.mark.integration
 def test_the_run_logs_its_cpu_time_and_keeps_it_across_a_resume(tmp_path):
     cfg = get_train_config("tiny")
     first = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False)
@@ -52,6 +53,7 @@ def test_the_run_logs_its_cpu_time_and_keeps_it_across_a_resume(tmp_path):
     assert 0.0 < cpu[0] < cpu[1] < cpu[2] == resumed.cpu_seconds / 3600
 
 
+@pytest.mark.integration
 def test_a_checkpoint_from_before_the_cpu_time_resumes_without_it(tmp_path):
     cfg = get_train_config("tiny")
     checkpoint_as_written_before(tmp_path, cfg, lambda ckpt: ckpt["state"].pop("cpu_seconds"))  # as written before it was measured

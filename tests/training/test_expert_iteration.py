@@ -30,6 +30,7 @@ def test_planner_labels_are_its_decisions_without_privileged_state():
     assert not torch.allclose(labels, data["action"])  # labels are the planner's, not the learner's
 
 
+@pytest.mark.integration
 def test_trainer_with_planner_teacher(tmp_path):
     cfg = get_train_config("tiny", imitation_iters=5, imitation_teacher="hybrid", imitation_beta_min=0.3)
     tr = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False)
@@ -42,6 +43,7 @@ def test_trainer_with_planner_teacher(tmp_path):
         Trainer(get_train_config("tiny", imitation_teacher="hybrid", heatmap=False), tmp_path / "c", seed=0, progress=False)
 
 
+@pytest.mark.integration
 def test_trainer_with_the_planner_acting(tmp_path):
     """imitation_teacher="hybrid-acting": the hybrid planner on the live network acts in every
     episode; its actions are the labels (so the value regresses on the planner's own returns)."""
@@ -62,6 +64,7 @@ def test_trainer_with_the_planner_acting(tmp_path):
         Trainer(get_train_config("tiny", imitation_teacher="hybrid-acting", collector="multi"), tmp_path / "b", seed=0, progress=False)
 
 
+@pytest.mark.integration
 def test_hybrid_acting_teacher_on_onnxruntime_plans_on_the_updated_weights(tmp_path):
     """teacher_inference="onnxruntime": the acting planner's ONNX export follows the updates."""
     pytest.importorskip("onnxruntime")
@@ -80,6 +83,7 @@ def test_hybrid_acting_teacher_on_onnxruntime_plans_on_the_updated_weights(tmp_p
     tr.close()
 
 
+@pytest.mark.integration
 def test_retrieval_takeover_lets_the_scripted_retriever_act_from_the_first_sight_of_the_target(tmp_path):
     """retrieval_takeover=1: in every episode the planner acts until the observation first shows
     the target and the scripted retriever from there to the episode's end; the executed actions
@@ -176,6 +180,7 @@ def test_the_observed_clearing_teacher_acts_and_labels_from_the_first_sight_on(t
         Trainer(get_train_config("tiny", imitation_iters=5, imitation_teacher="clearing-observed", collector="multi"), tmp_path / "b")
 
 
+@pytest.mark.integration
 def test_hybrid_acting_teacher_with_fixed_weights_teaches_a_network_without_heatmap(tmp_path):
     """teacher_weights: the hybrid planner acts with a fixed network (here a saved random one), so
     a learner without heat-map head learns from its episodes; the teacher's weights never move."""
@@ -209,6 +214,7 @@ def test_hybrid_acting_teacher_with_fixed_weights_teaches_a_network_without_heat
     assert not (tmp_path / "bad" / "checkpoint.pt").exists()
 
 
+@pytest.mark.integration
 def test_clearing_observed_teacher_with_successes_only(tmp_path):
     """label_episodes="success" with the observed clearing teacher: its labels are the actions it
     took, so only the frames it acted on in episodes that succeed within the batch stay labels."""
@@ -260,6 +266,7 @@ def test_clearing_observed_teacher_with_action_noise(tmp_path):
         OnlineTeacherPolicy(tr.net.policy, tr.expert, action_noise=-0.1)
 
 
+@pytest.mark.integration
 def test_clearing_observed_teacher_with_the_hierarchical_search(tmp_path):
     """teacher_search="hierarchical": the drawn teacher acts from the episode's start, the
     hierarchical planner's sweep before the first sight, the clearing retriever after, and every

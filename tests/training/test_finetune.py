@@ -67,6 +67,7 @@ def test_init_weights_written_before_a_setting_existed_start_a_run(tmp_path):
         tr.close()
 
 
+@pytest.mark.integration
 def test_critic_warmup_trains_the_value_head_only(tmp_path, start_weights):
     path, _ = start_weights
     cfg = get_train_config("tiny", critic_warmup_iters=1, batch_norm_frames=0)

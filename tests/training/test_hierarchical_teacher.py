@@ -70,6 +70,7 @@ def test_who_acts_is_drawn_per_episode():
     assert 0 < int(acts[:, 0].sum()) < 8  # both kinds of episode at beta 0.5
 
 
+@pytest.mark.integration
 def test_a_plan_is_dropped_once_the_world_leaves_it():
     """Open-loop (the paper) the planner executes a plan to its end whatever happens; with a
     tolerance it plans again when the observed gripper leaves the simulated path."""
@@ -112,6 +113,7 @@ def test_a_plan_is_dropped_once_the_world_leaves_it():
         HierarchicalPlanner(follow_tolerance=(0.01, -1.0))
 
 
+@pytest.mark.integration
 def test_trainer_with_the_hierarchical_teacher(tmp_path):
     cfg = get_train_config("tiny", imitation_iters=5, imitation_teacher="hierarchical", collector="single", imitation_beta_min=0.5)
     tr = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False)
@@ -158,6 +160,7 @@ def test_weighted_imitation_averages_over_labelled_frames():
     assert torch.allclose(weighted, first_two) and not torch.allclose(weighted, full)
 
 
+@pytest.mark.integration
 def test_the_hierarchical_teachers_own_successes_only(tmp_path):
     """label_episodes="success" with the hierarchical teacher: only the frames of the episodes it
     acted in and that succeed within the batch stay labels (its own successful demonstrations)."""

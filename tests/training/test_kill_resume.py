@@ -84,6 +84,7 @@ def _iteration(run: Path) -> int:
     return torch.load(run / "checkpoint.pt", weights_only=True)["state"]["iteration"]
 
 
+@pytest.mark.integration
 def test_sigkill_at_any_moment_resumes_exactly(tmp_path):
     assert _train(tmp_path / "straight") == 0
     rng = random.Random(0)
@@ -107,6 +108,7 @@ def test_sigkill_at_any_moment_resumes_exactly(tmp_path):
     assert not list(run.glob("*.tmp")) and not list(run.glob("dagger_buffer*"))
 
 
+@pytest.mark.integration
 def test_an_evaluation_killed_while_writing_leaves_no_partial_result(tmp_path):
     out = tmp_path / "r.json"
     argv = ["eval", "--method", "scripted", "--tasks", "2", "--no-progress", "--out", str(out)]

@@ -35,6 +35,7 @@ def multi_reference(tmp_path_factory):
     return out
 
 
+@pytest.mark.integration
 def test_ray_collection_and_ppo_update_match_multi_and_survive_a_dead_worker(multi_reference, tmp_path, caplog):
     import ray
 

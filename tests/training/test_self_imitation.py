@@ -31,6 +31,7 @@ def test_successful_episode_frames_mark_the_frames_of_episodes_that_end_in_succe
     ]
 
 
+@pytest.mark.integration
 def test_self_imitation_clones_the_learners_own_successful_episodes(tmp_path):
     """The learner acts (no teacher); its own actions are the labels on the frames of the episodes
     that succeed within the batch, and only there."""

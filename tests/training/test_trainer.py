@@ -15,6 +15,7 @@ def _weights(net):
     return {k: v.clone() for k, v in net.state_dict().items()}
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize("imitation", [0, 4])
 def test_resume_is_exact(tmp_path, imitation):
     cfg = get_train_config("tiny", imitation_iters=imitation, imitation_beta_iters=2 if imitation else 0)
@@ -39,6 +40,7 @@ def test_resume_is_exact(tmp_path, imitation):
         assert all(torch.equal(w[k], a[k]) for k in a)
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize("where", ["promotion check", "update"])
 def test_a_stop_inside_an_iteration_keeps_the_last_checkpoint_and_resumes_exactly(tmp_path, where):
     """SIGTERM / Ctrl-C (KeyboardInterrupt) during the update or the promotion check: the
@@ -145,6 +147,7 @@ def test_curriculum_promotes_only_above_threshold_over_a_full_window():
     assert not c3.record([True, True]) and c3.stage == 3
 
 
+@pytest.mark.integration
 def test_resume_from_an_older_checkpoint_supersedes_later_metric_rows(tmp_path):
     cfg = get_train_config("tiny")
     tr = Trainer(cfg, tmp_path, seed=0, progress=False, tensorboard=False, checkpoint_every_s=1e9)
@@ -158,6 +161,7 @@ def test_resume_from_an_older_checkpoint_supersedes_later_metric_rows(tmp_path):
     assert iterations == [1, 2]
 
 
+@pytest.mark.integration
 def test_hybrid_promotion_rule(tmp_path):
     """promotion='hybrid' (the paper's rule) evaluates hybrid 4x4 on validation tasks and promotes on it."""
     always = get_train_config("tiny", promotion="hybrid", promotion_eval_every=2, promotion_eval_tasks=2, promote_threshold=-1.0)
