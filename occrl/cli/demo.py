@@ -11,7 +11,7 @@ from pathlib import Path
 from occrl.atomic_files import write_text_atomic
 from occrl.cli.options import checked_weights_file
 
-__all__ = ["run_demo", "demo_seeds", "DEMO_STAGE", "DEMO_FIRST_SEED", "PRIVILEGED_LABELS"]
+__all__ = ["run_demo", "demo_seeds", "hidden_target_seeds", "DEMO_STAGE", "DEMO_FIRST_SEED", "PRIVILEGED_LABELS"]
 
 
 def _gl_available() -> bool:
@@ -35,8 +35,7 @@ DEMO_FIRST_SEED = 2024  # the demo looks at task seeds from this one on
 
 def demo_seeds(stage: int, count: int, first_seed: int, hidden_target: bool = True) -> list[int]:
     """The task seeds the demo plays: from ``first_seed`` on, the first ``count`` whose first
-    observation does not show the target (:func:`~occrl.training.start_scenes.hidden_target_scenes`),
-    or the next ``count`` seeds as they come when ``hidden_target`` is False.
+    observation does not show the target (:func:`hidden_target_seeds`), or the next ``count`` seeds as they come when ``hidden_target`` is False.
 
     Raises:
         ValueError: when fewer than ``count`` of the next ``50 * count`` shelves start with their target hidden.
@@ -50,18 +49,36 @@ def demo_seeds(stage: int, count: int, first_seed: int, hidden_target: bool = Tr
     """
     if not hidden_target:
         return list(range(first_seed, first_seed + count))
-    from occrl.training.start_scenes import hidden_target_scenes
-
     seeds: list[int] = []
     end = first_seed + 50 * count
     for start in range(first_seed, end, 8):
-        seeds += [int(scene.seed) for scene in hidden_target_scenes(stage, range(start, min(start + 8, end)))]
+        seeds += hidden_target_seeds(stage, range(start, min(start + 8, end)))
         if len(seeds) >= count:
             return seeds[:count]
     raise ValueError(
         f"only {len(seeds)} of the {50 * count} stage-{stage} shelves from seed {first_seed} on start with their target hidden; "
         "give --seed to play shelves as they come"
     )
+
+
+def hidden_target_seeds(stage: int, seeds: range | list[int]) -> list[int]:
+    """The task seeds among ``seeds`` (:func:`occrl.envs.episodes.task_scenes`) whose first
+    observation does not report the target, in seed order.
+
+    Examples:
+        >>> from occrl.cli.demo import hidden_target_seeds
+        >>> hidden_target_seeds(2, range(2024, 2030))
+        [2024, 2027, 2029]
+    """
+    from occrl.envs import make_env
+    from occrl.envs.episodes import task_scenes
+    from occrl.planners.recreate import recreate
+
+    seeds = [int(s) for s in seeds]
+    env = make_env(batch_size=len(seeds), scenes=task_scenes(stage, seeds), seed=seeds, heatmap_target=False)
+    first = env.reset()
+    env.close()
+    return [seed for b, seed in enumerate(seeds) if not recreate(first[b]).target_detected]
 
 
 def run_demo(args: argparse.Namespace) -> int:

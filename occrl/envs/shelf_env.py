@@ -86,7 +86,7 @@ class ShelfEnv(EnvBase):
         physics: integration settings of the pymunk worlds (``occrl.envs.LEGACY_PHYSICS``
             reproduces occrl 0.1.0).
         scene_pool: start states to draw from (beyond the paper; e.g. the states a search
-            hands over to the retrieval, :mod:`occrl.training.start_scenes`): at each reset a
+            hands over to the retrieval): at each reset a
             world starts from a scene of the pool with probability ``scene_pool_share``, drawn by
             its own seeded generator (so a seed fixes the episode), else from a sampled scene.
             Not with ``scenes``.

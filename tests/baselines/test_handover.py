@@ -1,5 +1,6 @@
 """SearchThenRetrieve: the searcher acts until the target is first detected, the retriever after."""
 
+import pytest
 import numpy as np
 import torch
 from torchrl.envs.utils import step_mdp
@@ -11,6 +12,7 @@ from occrl.modules import make_occnet
 from occrl.planners import HybridPlanner, recreate
 
 
+@pytest.mark.integration
 def test_hand_over_at_the_first_detection():
     torch.manual_seed(0)
     net = make_occnet("paper").eval()
@@ -40,6 +42,7 @@ def test_hand_over_at_the_first_detection():
     assert policy.handed is None and policy.handovers == 0
 
 
+@pytest.mark.integration
 def test_a_following_retriever_decides_on_the_whole_history():
     torch.manual_seed(0)
     net = make_occnet("paper").eval()

@@ -78,6 +78,7 @@ class KeysSeen(HierarchicalPlanner):
         return out
 
 
+@pytest.mark.integration
 def test_the_executed_action_is_the_proposal_exactly_when_its_rollout_won(net):
     env = make_env(batch_size=2, stage=1, seed=3, heatmap_target=False).append_transform(net.make_primer())
     proposer = KeysSeen(plan_seconds=0.3, sweep_from="nearest", stop_when_located=True, follow_tolerance=TOLERANCE)

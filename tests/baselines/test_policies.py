@@ -26,6 +26,7 @@ def test_greedy_takes_the_mean_and_stochastic_samples_around_it():
     assert z.abs().max() < 6  # draws of the policy's Normal
 
 
+@pytest.mark.integration
 def test_stochastic_episodes_follow_their_task_seed():
     torch.manual_seed(0)
     net = make_occnet("paper", heatmap=False).eval()
@@ -38,6 +39,7 @@ def test_stochastic_episodes_follow_their_task_seed():
     assert not torch.allclose(a["action"][0], a["action"][1])
 
 
+@pytest.mark.integration
 def test_spread_scales_the_draws_and_zero_gives_the_mean():
     torch.manual_seed(0)
     net = make_occnet("paper", heatmap=False).eval()

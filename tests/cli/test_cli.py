@@ -16,6 +16,7 @@ def test_eval_writes_json(tmp_path, capsys):
     assert "mean time per task" in capsys.readouterr().out
 
 
+@pytest.mark.integration
 def test_eval_runs_any_hybrid_mxh(tmp_path, capsys):
     # beyond the papers' four: hybrid-1x1 plans one roll-out of one step per root, one world per task
     out = tmp_path / "r.json"
@@ -96,6 +97,7 @@ def assert_eval_refuses(bad: list[str], message: str, tmp_path, capsys) -> None:
     assert not (tmp_path / "x").exists()
 
 
+@pytest.mark.integration
 def test_rollout_min_scale_reaches_the_planner_and_the_json(tmp_path, capsys):
     from occrl.eval.methods import make_method
 
@@ -135,6 +137,7 @@ def test_rollout_min_scale_reaches_the_planner_and_the_json(tmp_path, capsys):
         assert_eval_refuses(bad, message, tmp_path, capsys)
 
 
+@pytest.mark.integration
 def test_proposal_bonus_reaches_the_hybrid_ompl_planner_and_the_json(tmp_path, capsys):
     pytest.importorskip("ompl")
     from occrl.eval.methods import make_method
@@ -156,6 +159,7 @@ def test_proposal_bonus_reaches_the_hybrid_ompl_planner_and_the_json(tmp_path, c
         assert_eval_refuses(bad, message, tmp_path, capsys)
 
 
+@pytest.mark.integration
 def test_eval_inference_backend_is_recorded_and_checked(tmp_path, capsys):
     pytest.importorskip("onnxruntime")
     out = tmp_path / "onnx.json"
@@ -235,6 +239,7 @@ def test_every_training_setting_is_documented_and_settable_from_the_command_line
         assert getattr(args, name) == expected, name
 
 
+@pytest.mark.integration
 def test_train_options_reach_the_config(tmp_path, capsys):
     assert main(["train", "--preset", "tiny", "--run-dir", str(tmp_path / "r"), "--iterations", "1", "--lr", "0.002",
                  "--no-heatmap", "--num-envs", "2", "--no-progress"]) == 0  # fmt: skip
