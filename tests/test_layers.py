@@ -31,6 +31,7 @@ LEVELS = {
     "planners": 2,
     "pretrained": 2,
     "baselines": 3,
+    "robot": 3,
     "distributed": 3,
     "training": 4,
     "eval": 4,

@@ -226,6 +226,13 @@ def add_eval(sub: argparse._SubParsersAction) -> None:
         help="execution env: the 2D pymunk world or the 3D MuJoCo shelf (planners still plan in pymunk)",
     )
     e.add_argument(
+        "--perception",
+        choices=["geometric", "tags"],
+        default="geometric",
+        help="with --world mujoco: what the planner is told it sees: the objects more than 50 %% visible at their true poses "
+        '(geometric, the default) or what a tag detector decodes in the wrist camera\'s 640 x 480 image (tags; pip install -e ".[camera]")',
+    )
+    e.add_argument(
         "--noise",
         type=NOISE,
         default=0.0,

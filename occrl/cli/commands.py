@@ -204,6 +204,7 @@ def run_eval(args: argparse.Namespace) -> int:
             flag for flag, given in (("--method", args.method), ("--stage", args.stage), ("--objects", args.objects)) if given is not None
         ]
         ignored += ["--world mujoco"] if args.world != "pymunk" else []
+        ignored += ["--perception tags"] if args.perception != "geometric" else []
         if ignored:
             print(
                 f"--sweep runs the papers' sweeps in the 2D world on stage-2 scenes with their own object counts "
@@ -253,6 +254,9 @@ def run_eval(args: argparse.Namespace) -> int:
             f"unknown method {args.method!r}; available: {METHODS} (or any hybrid-MxH / hybrid-lim-MxH / hybrid-ompl-MxH)", file=sys.stderr
         )
         return 2
+    if args.perception != "geometric" and args.world != "mujoco":
+        print(f"--perception {args.perception} needs --world mujoco (the 2D world has no camera image)", file=sys.stderr)
+        return 2
     seeds = list(range(args.seed, args.seed + args.tasks))
     objects = parse_objects(args.objects)
     batch = 1 if is_planner(args.method) else args.batch  # planners: one world per task, exact per-task time
@@ -276,6 +280,7 @@ def run_eval(args: argparse.Namespace) -> int:
             inference=args.inference,
             replicate=args.replicate,
             proposal_bonus=args.proposal_bonus,
+            perception=args.perception,
         )
     finally:
         _stop_ray_if_used(args)
@@ -286,6 +291,7 @@ def run_eval(args: argparse.Namespace) -> int:
         "objects": args.objects,
         "noise": args.noise,
         "world": args.world,
+        **({"perception": args.perception} if args.perception != "geometric" else {}),
         "first_seed": args.seed,
         **({"rollout_min_scale": args.rollout_min_scale} if args.rollout_min_scale else {}),
         **({"inference": args.inference} if args.inference != "torch" else {}),
@@ -300,7 +306,7 @@ def run_eval(args: argparse.Namespace) -> int:
     lo, hi = summary["success_ci95"]
     if args.format == "text":
         print(
-            f"{args.method}: {args.world} world, stage {stage}, objects {args.objects or 'of the stage'}, noise {args.noise}, {summary['tasks']} tasks: success {summary['success_rate']:.1%} "
+            f"{args.method}: {args.world} world{', tags' if args.perception == 'tags' else ''}, stage {stage}, objects {args.objects or 'of the stage'}, noise {args.noise}, {summary['tasks']} tasks: success {summary['success_rate']:.1%} "
             f"(95% CI {lo:.1%}-{hi:.1%}), dropped {summary['dropped']}, mean actions {summary['mean_actions']:.1f}, "
             f"mean time per task {summary['mean_seconds']:.2f} s"
             + (f" ({batch} tasks at a time)" if batch > 1 else "")

@@ -30,6 +30,7 @@ __all__ = [
     "task_scenes",
     "task_object_count",
     "check_replicate",
+    "check_perception",
     "decision_seed",
     "seeded_task_env",
     "episode_end",
@@ -119,6 +120,27 @@ def check_replicate(replicate: int) -> None:
         raise ValueError(f"replicate must be an integer >= 0, got {replicate!r}")
 
 
+def check_perception(perception: str, world: str) -> None:
+    """``ValueError`` unless ``perception`` is one the ``world`` offers: ``"geometric"`` everywhere,
+    ``"tags"`` (the tag detector on the wrist camera's image) in ``"mujoco"``.
+
+    Examples:
+        >>> from occrl.envs.episodes import check_perception
+        >>> check_perception("tags", "mujoco")
+        >>> check_perception("tags", "pymunk")
+        Traceback (most recent call last):
+            ...
+        ValueError: perception='tags' needs world='mujoco' (the 2D world has no camera image); the pymunk world offers 'geometric'
+    """
+    modes = ("geometric", "tags")  # MujocoShelfEnv.PERCEPTION_MODES (not imported: MuJoCo is optional)
+    if perception not in modes:
+        raise ValueError(f"perception must be one of {modes}, got {perception!r}")
+    if perception != "geometric" and world != "mujoco":
+        raise ValueError(
+            f"perception={perception!r} needs world='mujoco' (the 2D world has no camera image); the {world} world offers 'geometric'"
+        )
+
+
 def decision_seed(task_seed: int, replicate: int = 0) -> int:
     """The seed of the decision maker's randomness in replicate ``replicate`` of a task: the task
     seed itself for replicate 0 (every recorded result), a seed drawn from (task seed, replicate)
@@ -153,6 +175,7 @@ def seeded_task_env(
     size: int = DEFAULT_SIZE,
     replicate: int = 0,
     remembered_detections: bool = False,
+    perception: str = "geometric",
 ):
     """The env of a batch of tasks, with the env and the decision maker seeded by the task seeds:
     what :func:`run_episodes` runs, and what a replay of one of its episodes must build.
@@ -161,7 +184,8 @@ def seeded_task_env(
     where it can (``reseed_worlds``, e.g. :class:`~occrl.baselines.NetPolicy`), else the batch's
     first seed (``reseed``, e.g. the planners, run one task per batch). Either way results do not
     depend on how tasks are spread over processes. ``replicate`` > 0 seeds the decision maker by
-    :func:`decision_seed` instead (the env keeps the task seeds).
+    :func:`decision_seed` instead (the env keeps the task seeds). ``perception="tags"`` makes the
+    MuJoCo env report what its tag detector decodes (:class:`~occrl.envs.MujocoShelfEnv`).
 
     Examples:
         >>> from occrl.baselines import ScriptedRetriever
@@ -171,6 +195,7 @@ def seeded_task_env(
         torch.Size([2])
     """
     decision_seeds = [decision_seed(s, replicate) for s in seeds]  # a bad replicate fails before any env is built
+    check_perception(perception, world)
     env = make_env(
         batch_size=len(scenes),
         scenes=list(scenes),
@@ -180,6 +205,7 @@ def seeded_task_env(
         world=world,
         size=size,
         remembered_detections=remembered_detections,
+        **({"perception": perception} if perception != "geometric" else {}),
     )
     for p in primers:
         env.append_transform(p.clone() if hasattr(p, "clone") else p)
@@ -220,10 +246,12 @@ def run_episodes(
     remembered_detections: bool = False,
     on_env: Callable[[EnvBase], None] | None = None,
     on_rollout: Callable[[TensorDictBase], None] | None = None,
+    perception: str = "geometric",
 ) -> list[EpisodeResult]:
     """Run ``policy`` once on each scene (batches of ``batch_size`` worlds stepped together);
     ``replicate`` > 0 draws the decision maker's randomness anew (:func:`decision_seed`);
-    ``remembered_detections`` and ``size`` make the env a network needs (``make_env``).
+    ``remembered_detections`` and ``size`` make the env a network needs (``make_env``);
+    ``perception`` is the MuJoCo env's (:func:`seeded_task_env`).
     Diagnoses look inside through two hooks: ``on_env`` gets each batch's env before its
     roll-out (e.g. to hand a policy the worlds' true state: ``env.base_env.worlds``),
     ``on_rollout`` each batch's trajectory (batch, time) after it.
@@ -245,7 +273,9 @@ def run_episodes(
     for start in range(0, len(scenes), batch_size):
         chunk = list(scenes[start : start + batch_size])
         chunk_seeds = list(seeds[start : start + batch_size])
-        env = seeded_task_env(policy, chunk, chunk_seeds, noise, primers, heatmap_target, world, size, replicate, remembered_detections)
+        env = seeded_task_env(
+            policy, chunk, chunk_seeds, noise, primers, heatmap_target, world, size, replicate, remembered_detections, perception
+        )
         if on_env is not None:
             on_env(env)
         t = time.time()

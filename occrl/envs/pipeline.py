@@ -76,7 +76,8 @@ def make_env(
             (Called ``backend`` before 0.2.0, a name now kept for process executors; still accepted
             here with a ``DeprecationWarning``.)
         **env_kwargs: passed to the env class, e.g. ``physics=occrl.envs.LEGACY_PHYSICS`` (the
-            pymunk physics of occrl 0.1.0), or ``record_camera=True`` or ``visibility="rays"`` for
+            pymunk physics of occrl 0.1.0), or ``record_camera=True``, ``visibility="rays"`` or
+            ``perception="tags"`` (detections from fiducial tags in the wrist camera's image) for
             MuJoCo.
 
     Examples:
@@ -96,6 +97,9 @@ def make_env(
         warnings.warn("make_env(backend=...) is now make_env(world=...)", DeprecationWarning, stacklevel=2)
         world = env_kwargs.pop("backend")
     if world == "pymunk":
+        perception = env_kwargs.pop("perception", "geometric")
+        if perception != "geometric":
+            raise ValueError(f"perception={perception!r} needs world='mujoco' (the 2D world has no camera image)")
         env_cls = ShelfEnv
     elif world == "mujoco":
         from occrl.envs.mujoco3d.env import MujocoShelfEnv  # optional extra: imported only when asked for

@@ -23,7 +23,7 @@ from tqdm import tqdm
 
 from occrl.distributed import WorkerDiedError, is_worker_death, require_ray, start_ray
 from occrl.envs import world_constants as C
-from occrl.envs.episodes import EpisodeResult, check_replicate, run_episodes, seeded_task_env, task_scenes  # noqa: F401 (re-exported)
+from occrl.envs.episodes import EpisodeResult, check_perception, check_replicate, run_episodes, seeded_task_env, task_scenes  # noqa: F401 (re-exported)
 from occrl.eval.methods import make_method
 
 # EpisodeResult, run_episodes, task_scenes, seeded_task_env live in occrl.envs.episodes (importable here too)
@@ -174,9 +174,10 @@ def _init_worker(method: str, weights, threads: int, settings: dict) -> None:
 
 
 def _run_chunk(args) -> list[EpisodeResult]:
-    stage, seeds, num_objects, noise, world, replicate = args
+    stage, seeds, num_objects, noise, world, replicate, perception = args
     m = _WORKER["method"]
-    return m.run_episodes(task_scenes(stage, seeds, num_objects), seeds, noise, len(seeds), world=world, replicate=replicate)
+    options = {"perception": perception} if perception != "geometric" else {}
+    return m.run_episodes(task_scenes(stage, seeds, num_objects), seeds, noise, len(seeds), world=world, replicate=replicate, **options)
 
 
 def _run_tasks_ray(
@@ -258,6 +259,7 @@ def run_tasks(
     inference: str = "torch",
     replicate: int = 0,
     proposal_bonus: float = 0.0,
+    perception: str = "geometric",
 ) -> list[EpisodeResult]:
     """Evaluate a named method on task seeds, in chunks of ``batch`` worlds spread over
     ``workers`` processes (``backend="local"``) or Ray actors (``backend="ray"``, a local runtime
@@ -267,7 +269,9 @@ def run_tasks(
     task's object count from its seed. ``rollout_min_scale`` and ``inference`` go to the hybrid
     planners, ``proposal_bonus`` to ``hybrid-ompl-MxH`` (:func:`~occrl.eval.methods.make_method`). ``replicate`` > 0 runs the same tasks with
     the decision maker's randomness drawn anew (:func:`~occrl.envs.episodes.decision_seed`; 0 is
-    what every recorded result ran). ``progress``: show a progress bar with an ETA
+    what every recorded result ran). ``perception="tags"`` (with ``world="mujoco"``) plans from what
+    the tag detector decodes in the wrist camera's image instead of the geometric visibility rule.
+    ``progress``: show a progress bar with an ETA
     (``True``), none (``False``), or advance a ``tqdm`` bar the caller owns (a sweep's).
 
     Examples:
@@ -279,11 +283,12 @@ def run_tasks(
     if backend not in ("local", "ray"):
         raise ValueError(f"backend must be 'local' or 'ray', got {backend!r}")
     check_replicate(replicate)
+    check_perception(perception, world)
     chunks = [list(seeds[i : i + batch]) for i in range(0, len(seeds), batch)]
     own_bar = not hasattr(progress, "update")
     bar = tqdm(total=len(seeds), desc=f"{method} stage {stage} noise {noise}", unit="task", disable=not progress) if own_bar else progress
     results: list[list[EpisodeResult]] = [None] * len(chunks)
-    jobs = [(stage, c, num_objects, noise, world, replicate) for c in chunks]
+    jobs = [(stage, c, num_objects, noise, world, replicate, perception) for c in chunks]
     settings = dict(rollout_min_scale=rollout_min_scale, inference=inference, proposal_bonus=proposal_bonus)  # make_method's
     if backend == "ray":
         results = _run_tasks_ray(method, weights, jobs, max(1, workers), ray_address, bar, settings)

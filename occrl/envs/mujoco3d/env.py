@@ -9,6 +9,7 @@ recreated from the detections this env reports. mujoco and dm_control are an opt
 from __future__ import annotations
 
 import logging
+import math
 from typing import Sequence
 
 import numpy as np
@@ -20,14 +21,16 @@ from occrl.envs import world_constants as C
 from occrl.envs.mujoco3d.camera import CameraConfig, gl_available, require_mujoco
 from occrl.envs.mujoco3d.model import OBJECT_HEIGHT_RANGE
 from occrl.envs.mujoco3d.world import MujocoWorld
+from occrl.envs.mujoco3d.wrist_camera import WristCameraSettings
 from occrl.envs.scene import Scene
 from occrl.envs.shelf_env import ShelfEnv
 
-__all__ = ["MujocoShelfEnv", "VISIBILITY_BACKENDS"]
+__all__ = ["MujocoShelfEnv", "VISIBILITY_BACKENDS", "PERCEPTION_MODES"]
 
 logger = logging.getLogger(__name__)
 
 VISIBILITY_BACKENDS = ("auto", "render", "rays")
+PERCEPTION_MODES = ("geometric", "tags")
 
 
 class MujocoShelfEnv(ShelfEnv):
@@ -45,6 +48,11 @@ class MujocoShelfEnv(ShelfEnv):
     fraction is (pixels where the object is the first thing hit) / (pixels it would cover alone),
     the numerator from a segmentation render or from ``mujoco.mj_multiRay`` through the same pixel
     centres. Ground truth (poses, fractions, contact grasp) is under ``"privileged"``.
+    With ``perception="tags"`` the objects wear fiducial tags instead
+    (:mod:`~occrl.envs.mujoco3d.tags`) and the detections are what
+    :class:`occrl.perception.TagDetector` decodes in the wrist camera's 640 x 480 RGB frame: an
+    object none of whose tags is decoded is not seen, and a seen object's pose is the detector's
+    estimate. Each type keeps the slot it was first seen in (:class:`~occrl.envs.detection_slots.DetectionSlots`).
 
     Action Space:
         ``Bounded(-1, 1, (4,))``: forward, lateral, rotation in the gripper frame (5 cm, 5 cm,
@@ -73,6 +81,13 @@ class MujocoShelfEnv(ShelfEnv):
         camera_size: (height, width) of the camera image, used for visibility and recording.
         object_height: object height in m, or a (low, high) range from which each type id gets
             a fixed height.
+        perception: ``"geometric"`` (the default: the objects more than 50 % visible, at their true
+            poses) or ``"tags"`` (what the tag detector decodes; needs OpenCV,
+            ``pip install -e ".[camera]"``, and an OpenGL backend).
+        wrist_camera: with ``perception="tags"``, the RGB camera's image size, field of view,
+            lighting and image noise (:class:`~occrl.envs.mujoco3d.wrist_camera.WristCameraSettings`;
+            640 x 480, 70 degrees across, nominal light, no noise by default). The lighting and
+            noise draw from a stream spawned from each world's seed, so a seed fixes the images too.
 
     Raises:
         ImportError: mujoco or dm_control are missing (the message names the extra to install).
@@ -100,15 +115,39 @@ class MujocoShelfEnv(ShelfEnv):
         record_camera: bool = False,
         camera_size: tuple[int, int] = (120, 160),
         object_height: float | tuple[float, float] = OBJECT_HEIGHT_RANGE,
+        perception: str = "geometric",
+        wrist_camera: WristCameraSettings | None = None,
     ) -> None:
         require_mujoco()
         if visibility not in VISIBILITY_BACKENDS:
             raise ValueError(f"visibility must be one of {VISIBILITY_BACKENDS}, got {visibility!r}")
+        if perception not in PERCEPTION_MODES:
+            raise ValueError(f"perception must be one of {PERCEPTION_MODES}, got {perception!r}")
+        if wrist_camera is not None and perception != "tags":
+            raise ValueError("wrist_camera sets the tag detector's camera: give it with perception='tags'")
+        if wrist_camera is not None and not isinstance(wrist_camera, WristCameraSettings):
+            raise TypeError(f"wrist_camera must be a WristCameraSettings, got {type(wrist_camera).__name__}")
+        self.perception = perception
+        self.wrist_camera = wrist_camera if wrist_camera is not None else WristCameraSettings()
+        self._observers: list = []
+        self._slots: list = []
+        if perception == "tags":
+            from occrl.envs.mujoco3d.tags import require_opencv
+
+            require_opencv()  # fail here, naming the extra, rather than at the first reset
+            ok, why = gl_available()
+            if not ok:
+                raise RuntimeError(f"perception='tags' renders the wrist camera and needs an OpenGL backend for MuJoCo, none works: {why}")
         h, w = (int(v) for v in camera_size)
         if h < 8 or w < 8:
             raise ValueError(f"camera_size must be (height, width) of at least 8 pixels, got {camera_size}")
         # set before ShelfEnv.__init__, which builds the specs (camera entry) and validates the rest
         self.camera = CameraConfig(height=h, width=w)
+        if perception == "tags" and abs(self.camera.fovy_degrees - self.wrist_camera.fovy_degrees) > 1e-9:
+            raise ValueError(
+                f"the wrist camera ({self.wrist_camera.width} x {self.wrist_camera.height}, {math.degrees(self.wrist_camera.fov):g} degrees across) "
+                f"and camera_size {camera_size} must share one vertical field of view: give them one aspect ratio and field of view"
+            )
         self.object_height = object_height
         self.record_camera = bool(record_camera)
         self.visibility = self._pick_visibility(visibility)
@@ -154,6 +193,9 @@ class MujocoShelfEnv(ShelfEnv):
     # ------------------------------------------------------------------ lifecycle
     def close(self, *, raise_if_closed: bool = True) -> None:
         """Free the worlds' OpenGL contexts."""
+        for o in self._observers:
+            if o is not None:
+                o.close()
         for w in self.worlds:
             if w is not None:
                 w.close()
@@ -161,7 +203,8 @@ class MujocoShelfEnv(ShelfEnv):
 
     # ------------------------------------------------------------------ ShelfEnv's world hooks
     def _new_world(self, i: int) -> MujocoWorld:
-        return MujocoWorld(
+        tags = self.perception == "tags"
+        world = MujocoWorld(
             self._next_scene(i),
             camera=self.camera,
             visibility=self.visibility,
@@ -169,10 +212,42 @@ class MujocoShelfEnv(ShelfEnv):
             noise=self.noise,
             rng=self._rngs[i],
             object_height=self.object_height,
+            tags=tags,
         )
+        if tags:
+            from occrl.envs.detection_slots import DetectionSlots
+            from occrl.envs.mujoco3d.tag_perception import TagObserver
+
+            if not self._observers:
+                self._observers, self._slots = [None] * self.num_worlds, [None] * self.num_worlds
+            if self._observers[i] is not None:
+                self._observers[i].close()
+            # the images' lighting and noise: a stream spawned from the world's (which it leaves as it is)
+            self._observers[i] = TagObserver(world, self.wrist_camera, self._rngs[i].spawn(1)[0])
+            self._slots[i] = DetectionSlots()
+        return world
 
     def _release_world(self, world: MujocoWorld) -> None:
         world.close()
+
+    def _observe(self, success: np.ndarray, dropped: np.ndarray) -> TensorDictBase:
+        out = super()._observe(success, dropped)
+        if self.perception != "tags":
+            return out
+        # the objects the detector decodes replace the geometric detections, slot by slot
+        objects = out.get("objects")
+        for i, (world, observer, slots) in enumerate(zip(self.worlds, self._observers, self._slots)):
+            t = world.target_index
+            td = slots.observation(
+                world.gripper_pose(),
+                world.opening,
+                observer.detections(),
+                int(world.type_ids[t]),
+                world.padded_vertices[t, : world.num_vertices[t]],
+                bool(world.closed),
+            )
+            objects[i] = td.get("objects")[0]
+        return out
 
     def _visible_fractions(self, world: MujocoWorld, poses: np.ndarray) -> np.ndarray:
         return world.visible_fractions()  # pixels or rays of the gripper camera

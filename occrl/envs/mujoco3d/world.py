@@ -17,6 +17,7 @@ import numpy as np
 
 from occrl.envs import world_constants as C
 from occrl.envs.mujoco3d.camera import VISIBLE_GROUPS, CameraConfig, close_renderer, new_renderer, prism_pixel_counts, require_mujoco
+from occrl.envs.mujoco3d.tags import TagPlacement, add_tags, tag_placements
 from occrl.envs.mujoco3d.model import FINGER_CLOSED_TARGET, OBJECT_HEIGHT_RANGE, TIMESTEP, build_mjcf, type_height
 from occrl.envs.pymunk2d.physics_settings import INVALID_PENETRATION
 from occrl.envs.scene import Scene
@@ -39,6 +40,8 @@ class MujocoWorld:
         record_camera: also keep a renderer for RGB frames (needs OpenGL).
         noise: execution noise on density and friction, drawn before each action from ``rng``.
         object_height: a height in m, or a (low, high) range sampled per type id.
+        tags: put a fiducial tag on every side face wide enough (:mod:`~occrl.envs.mujoco3d.tags`;
+            needs OpenCV); the cards are visual only, so physics and visibility are unchanged.
 
     Examples:
         >>> from occrl.envs import Scene
@@ -60,6 +63,7 @@ class MujocoWorld:
         noise: float = 0.0,
         rng: np.random.Generator | None = None,
         object_height=OBJECT_HEIGHT_RANGE,
+        tags: bool = False,
     ) -> None:
         mujoco, mjcf = require_mujoco()
         if visibility not in ("render", "rays"):
@@ -81,6 +85,10 @@ class MujocoWorld:
         self.heights = np.array([type_height(int(t), object_height) for t in self.type_ids])
 
         self.mjcf_model = build_mjcf(scene, camera, object_height)
+        self.tags: list[TagPlacement] = []
+        if tags:
+            self.tags = tag_placements(scene, self.heights)
+            add_tags(self.mjcf_model, self.tags)
         self.physics = mjcf.Physics.from_mjcf_model(self.mjcf_model)
         m = self.model = self.physics.model.ptr
         d = self.data = self.physics.data.ptr
@@ -95,6 +103,8 @@ class MujocoWorld:
         # an overlap of two solids in the plane
         self._support_geoms = np.array([name(OBJ.mjOBJ_GEOM, g) for g in ("ground", "floor")], dtype=np.int64)
         self._cam = name(OBJ.mjOBJ_CAMERA, "wrist")
+        self._hand = name(OBJ.mjOBJ_BODY, "hand")
+        self.camera_id = self._cam
         self.geom_slot = np.full(m.ngeom + 1, -1, dtype=np.int64)  # last entry: "no hit" (-1 ids)
         self.geom_slot[self._obj_geom] = np.arange(self.num_objects)
         self._nominal_mass = m.body_mass[self._obj_body].copy()
@@ -248,6 +258,14 @@ class MujocoWorld:
     def camera_frame(self) -> tuple[np.ndarray, np.ndarray]:
         """Camera position and rotation (columns: right, up, backwards) in the shelf frame."""
         return self.data.cam_xpos[self._cam].copy(), self.data.cam_xmat[self._cam].reshape(3, 3).copy()
+
+    def gripper_transform(self) -> np.ndarray:
+        """4 x 4 pose of the gripper frame in the shelf frame (origin at the palm's front centre,
+        at the finger pads' height; x to the right, y along the approach, z up)."""
+        pose = np.eye(4)
+        pose[:3, :3] = self.data.xmat[self._hand].reshape(3, 3)
+        pose[:3, 3] = self.data.xpos[self._hand]
+        return pose
 
     def visible_pixels(self, method: str | None = None) -> np.ndarray:
         """Per object, the camera pixels whose first hit it is (gripper excluded)."""

@@ -1,0 +1,218 @@
+"""Fiducial tags on the MuJoCo objects: where each tag sits and its texture in the model.
+
+Each object carries one AprilTag (36h11 family, OpenCV's ``cv2.aruco`` dictionary) on every side
+face wide enough for one, centred on the face at the wrist camera's height: the faces the gripper
+camera sees (it sits below every object's top, so top faces are never in view). A tag's black
+square measures ``min(MAX_TAG_SIZE, what the face holds)`` and is printed with a white border of
+one cell (an eighth of the square) on a 0.2 mm card set into the face, its print 0.05 mm out of it
+(the catalogue puts the tag on the face: a 0.05 mm offset, far below what the camera resolves). A face narrower
+than a :data:`MIN_TAG_SIZE` tag with its border and :data:`FACE_CLEARANCE` either side carries none.
+
+Tag ids follow the object's type: tag ``(type_id - 1) * 8 + face``, where face ``k`` runs from
+vertex ``k`` to vertex ``k + 1`` of the type's counter-clockwise polygon, so a type always wears
+the same tags (type ids 1 to :data:`MAX_TAGGED_TYPE`).
+
+The tag cards are visual only: geom group 3 (hidden from the visibility render and rays), no
+contacts and no mass (the compiler's ``inertiagrouprange`` leaves group 3 out), so the physics and
+the geometric visibility are those of the model without tags, bit for bit.
+
+Tag frame (as OpenCV's ArUco pose estimation reports it): origin at the centre of the black
+square, x to the right and y up as seen from the front, z out of the face towards the viewer.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from occrl.envs import world_constants as C
+from occrl.envs.scene import Scene
+
+__all__ = [
+    "TAG_DICTIONARY",
+    "CAMERA_EXTRA",
+    "MIN_TAG_SIZE",
+    "MAX_TAG_SIZE",
+    "FACE_CLEARANCE",
+    "TAG_CENTRE_Z",
+    "TAG_GROUP",
+    "MAX_TAGGED_TYPE",
+    "TagPlacement",
+    "require_opencv",
+    "tag_id",
+    "tag_placements",
+    "marker_image",
+    "add_tags",
+]
+
+TAG_DICTIONARY = "DICT_APRILTAG_36h11"  # cv2.aruco's name of the AprilTag 36h11 family (587 tags)
+CAMERA_EXTRA = 'pip install -e ".[camera]"'
+MIN_TAG_SIZE = 0.010  # m, side of the black square
+MAX_TAG_SIZE = 0.030
+BORDER_CELLS = 1  # white border around the black square, in cells (the square is 8 cells wide)
+FACE_CLEARANCE = 0.002  # m kept free between the border and each vertical edge of the face
+TAG_CENTRE_Z = 0.07  # m above the shelf floor: the wrist camera's height
+CARD_THICKNESS = 0.0002
+CARD_STANDOFF = 0.00005  # the print stands this far out of the face (no depth fighting with it)
+TAG_GROUP = 3
+MAX_TAGGED_TYPE = 587 // C.MAX_VERTICES  # 73: the ids of every face of types 1..73 are in the family
+CELL_PIXELS = 12  # texture pixels per cell
+
+
+def require_opencv():
+    """Import ``cv2`` with its ``aruco`` module or raise an ``ImportError`` naming the extra."""
+    try:
+        import cv2
+
+        cv2.aruco.getPredefinedDictionary  # noqa: B018 (the contrib module must be there)
+    except (ImportError, AttributeError) as e:
+        raise ImportError(
+            f"fiducial tags need OpenCV with its aruco module, which could not be imported ({e}). Install it with: {CAMERA_EXTRA}"
+        ) from e
+    return cv2
+
+
+@dataclass(frozen=True)
+class TagPlacement:
+    """One tag on one object: its id, the object (scene index and type), the face it is on, the
+    side of its black square (m), its centre's height above the object's base (m) and its pose in
+    the object body's frame (centroid frame, z up from the object's mid-height), ``tag_to_object``
+    (4 x 4; the tag frame of the module docstring, the print's surface)."""
+
+    tag_id: int
+    object_index: int
+    type_id: int
+    face: int
+    size: float
+    up: float
+    tag_to_object: np.ndarray
+
+    @property
+    def card_width(self) -> float:
+        """Side of the printed card: the black square and its white border."""
+        return self.size * (1.0 + 2.0 * BORDER_CELLS / 8.0)
+
+
+def tag_id(type_id: int, face: int) -> int:
+    """The tag id of face ``face`` of type ``type_id``.
+
+    Examples:
+        >>> from occrl.envs.mujoco3d.tags import tag_id
+        >>> tag_id(1, 0), tag_id(3, 2)
+        (0, 18)
+    """
+    if isinstance(type_id, bool) or not isinstance(type_id, (int, np.integer)) or not 1 <= type_id <= MAX_TAGGED_TYPE:
+        raise ValueError(
+            f"tagged objects need a type id in [1, {MAX_TAGGED_TYPE}] (the 36h11 family has 587 tags, 8 per type), got {type_id!r}"
+        )
+    if not 0 <= face < C.MAX_VERTICES:
+        raise ValueError(f"face must be in [0, {C.MAX_VERTICES}), got {face!r}")
+    return (int(type_id) - 1) * C.MAX_VERTICES + int(face)
+
+
+def face_tag_size(face_length: float) -> float | None:
+    """The side of the tag a face of this length carries (None: too narrow for any)."""
+    size = (face_length - 2.0 * FACE_CLEARANCE) / (1.0 + 2.0 * BORDER_CELLS / 8.0)
+    if size < MIN_TAG_SIZE:
+        return None
+    return min(size, MAX_TAG_SIZE)
+
+
+def tag_placements(scene: Scene, heights: np.ndarray) -> list[TagPlacement]:
+    """Every tag of a scene's objects (``heights``: each object's height in m).
+
+    Examples:
+        >>> import numpy as np
+        >>> from occrl.envs import Scene
+        >>> from occrl.envs.mujoco3d.tags import tag_placements
+        >>> box = [[-0.03, -0.02], [0.03, -0.02], [0.03, 0.02], [-0.03, 0.02]]
+        >>> scene = Scene.from_objects([{"vertices": box, "pose": (0.0, 0.2, 0.0), "is_target": True, "type_id": 2}])
+        >>> tags = tag_placements(scene, np.array([0.12]))
+        >>> [(t.tag_id, t.face, round(t.size, 4)) for t in tags]  # long faces 3 cm tags, short ones 2.88 cm
+        [(8, 0, 0.03), (9, 1, 0.0288), (10, 2, 0.03), (11, 3, 0.0288)]
+        >>> tags[0].up, tags[0].tag_to_object[:3, 3].round(5).tolist()  # 7 cm up: 1 cm above mid-height, on the front face
+        (0.07, [0.0, -0.02005, 0.01])
+    """
+    heights = np.asarray(heights, dtype=float).reshape(-1)
+    if len(heights) != len(scene.objects):
+        raise ValueError(f"heights must hold one height per object ({len(scene.objects)}), got {len(heights)}")
+    out = []
+    for i, (o, h) in enumerate(zip(scene.objects, heights)):
+        v = np.asarray(o.vertices, dtype=float)
+        for k in range(len(v)):
+            a, b = v[k], v[(k + 1) % len(v)]
+            length = float(np.hypot(*(b - a)))
+            size = face_tag_size(length)
+            if size is None:
+                continue
+            card = size * (1.0 + 2.0 * BORDER_CELLS / 8.0)
+            # centre height: the camera's, kept on the face (objects are at least 10 cm tall)
+            up = min(max(TAG_CENTRE_Z, card / 2), h - card / 2)
+            e = (b - a) / length
+            n = np.array([e[1], -e[0]])  # outward normal of a counter-clockwise polygon
+            centre = (a + b) / 2 + n * CARD_STANDOFF
+            pose = np.eye(4)
+            pose[:3, 0] = (e[0], e[1], 0.0)  # right, seen from the front
+            pose[:3, 1] = (0.0, 0.0, 1.0)  # up
+            pose[:3, 2] = (n[0], n[1], 0.0)  # out of the face
+            pose[:3, 3] = (centre[0], centre[1], up - h / 2)
+            out.append(TagPlacement(tag_id(o.type_id, k), i, int(o.type_id), k, size, up, pose))
+    return out
+
+
+def marker_image(tag: int, size: float | None = None, cell_pixels: int = CELL_PIXELS) -> np.ndarray:
+    """The printed card of a tag: its black square with a white border of one cell, (n, n) uint8
+    with ``cell_pixels`` pixels a cell (``size`` is unused: the image is the same at every size).
+
+    Examples:
+        >>> from occrl.envs.mujoco3d.tags import marker_image
+        >>> image = marker_image(0, cell_pixels=2)
+        >>> image.shape, int(image[0, 0]), int(image[2, 2])  # white border, black square
+        ((20, 20), 255, 0)
+    """
+    cv2 = require_opencv()
+    dictionary = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, TAG_DICTIONARY))
+    square = cv2.aruco.generateImageMarker(dictionary, int(tag), 8 * cell_pixels, borderBits=1)
+    pad = BORDER_CELLS * cell_pixels
+    return np.pad(square, pad, constant_values=255)
+
+
+def add_tags(root, placements: list[TagPlacement]) -> None:
+    """Add the tag cards to a dm_control ``mjcf`` model whose object bodies are named ``obj{i}``
+    (:func:`~occrl.envs.mujoco3d.model.build_mjcf`): a textured box per tag in geom group
+    :data:`TAG_GROUP`, without contacts or mass."""
+    from occrl.envs.mujoco3d.camera import require_mujoco
+
+    _, mjcf = require_mujoco()
+    cv2 = require_opencv()
+    root.compiler.inertiagrouprange = (0, TAG_GROUP - 1)  # the cards add no mass or inertia
+    for p in placements:
+        name = f"tag{p.tag_id}"
+        if root.find("texture", name) is None:
+            image = marker_image(p.tag_id)
+            ok, png = cv2.imencode(".png", np.repeat(image[..., None], 3, axis=-1))
+            if not ok:  # pragma: no cover - OpenCV failing to encode a small image
+                raise RuntimeError(f"OpenCV could not encode the texture of tag {p.tag_id}")
+            texture = root.asset.add("texture", name=name, type="2d", file=mjcf.Asset(png.tobytes(), ".png"))
+            root.asset.add("material", name=name, texture=texture, specular=0.0, shininess=0.0, reflectance=0.0)
+        body = root.find("body", f"obj{p.object_index}")
+        half = p.card_width / 2
+        # the card's -y face is the printed one: local x right, -y out of the face, z up
+        centre = p.tag_to_object[:3, 3] - p.tag_to_object[:3, 2] * (CARD_THICKNESS / 2)
+        yaw = math.atan2(p.tag_to_object[1, 0], p.tag_to_object[0, 0])
+        body.add(
+            "geom",
+            name=f"{name}_obj{p.object_index}",
+            type="box",
+            size=(half, CARD_THICKNESS / 2, half),
+            pos=centre,
+            euler=(0.0, 0.0, yaw),
+            material=name,
+            rgba=(1.0, 1.0, 1.0, 1.0),
+            group=TAG_GROUP,
+            contype=0,
+            conaffinity=0,
+            mass=0.0,
+        )
