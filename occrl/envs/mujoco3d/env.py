@@ -132,7 +132,7 @@ class MujocoShelfEnv(ShelfEnv):
         self._observers: list = []
         self._slots: list = []
         if perception == "tags":
-            from occrl.envs.mujoco3d.tags import require_opencv
+            from occrl.perception.opencv import require_opencv
 
             require_opencv()  # fail here, naming the extra, rather than at the first reset
             ok, why = gl_available()

@@ -1,6 +1,6 @@
 """Fiducial tags on the MuJoCo objects: where each tag sits and its texture in the model.
 
-Each object carries one AprilTag (36h11 family, OpenCV's ``cv2.aruco`` dictionary) on every side
+Each object carries one AprilTag (36h11 family, :mod:`occrl.perception`'s default dictionary) on every side
 face wide enough for one, centred on the face at the wrist camera's height: the faces the gripper
 camera sees (it sits below every object's top, so top faces are never in view). A tag's black
 square measures ``min(MAX_TAG_SIZE, what the face holds)`` and is printed with a white border of
@@ -29,10 +29,10 @@ import numpy as np
 
 from occrl.envs import world_constants as C
 from occrl.envs.scene import Scene
+from occrl.perception.opencv import require_opencv
+from occrl.perception.synthetic import tag_texture
 
 __all__ = [
-    "TAG_DICTIONARY",
-    "CAMERA_EXTRA",
     "MIN_TAG_SIZE",
     "MAX_TAG_SIZE",
     "FACE_CLEARANCE",
@@ -40,15 +40,11 @@ __all__ = [
     "TAG_GROUP",
     "MAX_TAGGED_TYPE",
     "TagPlacement",
-    "require_opencv",
     "tag_id",
     "tag_placements",
-    "marker_image",
     "add_tags",
 ]
 
-TAG_DICTIONARY = "DICT_APRILTAG_36h11"  # cv2.aruco's name of the AprilTag 36h11 family (587 tags)
-CAMERA_EXTRA = 'pip install -e ".[camera]"'
 MIN_TAG_SIZE = 0.010  # m, side of the black square
 MAX_TAG_SIZE = 0.030
 BORDER_CELLS = 1  # white border around the black square, in cells (the square is 8 cells wide)
@@ -59,19 +55,6 @@ CARD_STANDOFF = 0.00005  # the print stands this far out of the face (no depth f
 TAG_GROUP = 3
 MAX_TAGGED_TYPE = 587 // C.MAX_VERTICES  # 73: the ids of every face of types 1..73 are in the family
 CELL_PIXELS = 12  # texture pixels per cell
-
-
-def require_opencv():
-    """Import ``cv2`` with its ``aruco`` module or raise an ``ImportError`` naming the extra."""
-    try:
-        import cv2
-
-        cv2.aruco.getPredefinedDictionary  # noqa: B018 (the contrib module must be there)
-    except (ImportError, AttributeError) as e:
-        raise ImportError(
-            f"fiducial tags need OpenCV with its aruco module, which could not be imported ({e}). Install it with: {CAMERA_EXTRA}"
-        ) from e
-    return cv2
 
 
 @dataclass(frozen=True)
@@ -162,23 +145,6 @@ def tag_placements(scene: Scene, heights: np.ndarray) -> list[TagPlacement]:
     return out
 
 
-def marker_image(tag: int, size: float | None = None, cell_pixels: int = CELL_PIXELS) -> np.ndarray:
-    """The printed card of a tag: its black square with a white border of one cell, (n, n) uint8
-    with ``cell_pixels`` pixels a cell (``size`` is unused: the image is the same at every size).
-
-    Examples:
-        >>> from occrl.envs.mujoco3d.tags import marker_image
-        >>> image = marker_image(0, cell_pixels=2)
-        >>> image.shape, int(image[0, 0]), int(image[2, 2])  # white border, black square
-        ((20, 20), 255, 0)
-    """
-    cv2 = require_opencv()
-    dictionary = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, TAG_DICTIONARY))
-    square = cv2.aruco.generateImageMarker(dictionary, int(tag), 8 * cell_pixels, borderBits=1)
-    pad = BORDER_CELLS * cell_pixels
-    return np.pad(square, pad, constant_values=255)
-
-
 def add_tags(root, placements: list[TagPlacement]) -> None:
     """Add the tag cards to a dm_control ``mjcf`` model whose object bodies are named ``obj{i}``
     (:func:`~occrl.envs.mujoco3d.model.build_mjcf`): a textured box per tag in geom group
@@ -191,7 +157,7 @@ def add_tags(root, placements: list[TagPlacement]) -> None:
     for p in placements:
         name = f"tag{p.tag_id}"
         if root.find("texture", name) is None:
-            image = marker_image(p.tag_id)
+            image = tag_texture(p.tag_id, CELL_PIXELS, margin_cells=BORDER_CELLS)
             ok, png = cv2.imencode(".png", np.repeat(image[..., None], 3, axis=-1))
             if not ok:  # pragma: no cover - OpenCV failing to encode a small image
                 raise RuntimeError(f"OpenCV could not encode the texture of tag {p.tag_id}")
