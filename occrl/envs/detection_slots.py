@@ -42,7 +42,9 @@ class DetectionSlots:
     """
 
     def __init__(self, num_slots: int = MAX_SLOTS) -> None:
-        self.num_slots = int(num_slots)
+        if isinstance(num_slots, bool) or not isinstance(num_slots, int) or not 1 <= num_slots <= MAX_SLOTS:
+            raise ValueError(f"num_slots must be an int in [1, {MAX_SLOTS}] (the observation's slots), got {num_slots!r}")
+        self.num_slots = num_slots
         self.slot_of: dict[int, int] = {}
         self._last_seen: dict[int, int] = {}
         self._frame = 0
@@ -55,6 +57,8 @@ class DetectionSlots:
 
     def slots(self, type_ids: Sequence[int]) -> list[int]:
         """The slot of each of the types detected now (distinct ids), given them on first sight."""
+        if len(set(type_ids)) != len(type_ids) or len(type_ids) > self.num_slots:
+            raise ValueError(f"at most {self.num_slots} distinct type ids fit the slots, got {list(type_ids)}")
         self._frame += 1
         now = set(type_ids)
         for t in type_ids:

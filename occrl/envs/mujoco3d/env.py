@@ -230,6 +230,12 @@ class MujocoShelfEnv(ShelfEnv):
     def _release_world(self, world: MujocoWorld) -> None:
         world.close()
 
+    @property
+    def tag_observers(self) -> list:
+        """With ``perception="tags"``: each world's wrist camera and detector
+        (:class:`~occrl.envs.mujoco3d.tag_perception.TagObserver`), built at its reset; else empty."""
+        return list(self._observers)
+
     def _observe(self, success: np.ndarray, dropped: np.ndarray) -> TensorDictBase:
         out = super()._observe(success, dropped)
         if self.perception != "tags":
