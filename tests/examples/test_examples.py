@@ -14,3 +14,18 @@ def test_compose_components_runs(capsys):
     runpy.run_path(str(EXAMPLES / "compose_components.py"), run_name="__main__")
     out = capsys.readouterr().out
     assert "loss_heatmap" in out and "gradient reaches the swapped encoder: True" in out
+
+
+def test_robot_loop_runs(capsys, monkeypatch):
+    import pytest
+
+    pytest.importorskip("mujoco")
+    pytest.importorskip("cv2")
+    from occrl.envs.mujoco3d.camera import gl_available
+
+    if not gl_available()[0]:
+        pytest.skip(f"no OpenGL backend for MuJoCo: {gl_available()[1]}")
+    monkeypatch.setattr("sys.argv", ["robot_loop.py"])  # its defaults: 3 actions of hybrid-4x4
+    runpy.run_path(str(EXAMPLES / "robot_loop.py"), run_name="__main__")
+    out = capsys.readouterr().out
+    assert "step 3: sees" in out and "status after 3 actions: running" in out
