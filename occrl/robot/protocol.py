@@ -18,7 +18,7 @@ import numpy as np
 
 __all__ = ["Robot", "TASK_STATUSES"]
 
-TASK_STATUSES = ("running", "retrieved", "dropped")
+TASK_STATUSES = ("running", "retrieved", "dropped")  # what Robot.task_status may return
 
 
 @runtime_checkable

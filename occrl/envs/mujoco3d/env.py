@@ -30,7 +30,7 @@ __all__ = ["MujocoShelfEnv", "VISIBILITY_BACKENDS", "PERCEPTION_MODES"]
 logger = logging.getLogger(__name__)
 
 VISIBILITY_BACKENDS = ("auto", "render", "rays")
-PERCEPTION_MODES = ("geometric", "tags")
+PERCEPTION_MODES = ("geometric", "tags")  # what the planner is told it sees (the perception argument)
 
 
 class MujocoShelfEnv(ShelfEnv):

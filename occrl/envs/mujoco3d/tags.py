@@ -46,13 +46,13 @@ __all__ = [
 ]
 
 MIN_TAG_SIZE = 0.010  # m, side of the black square
-MAX_TAG_SIZE = 0.030
+MAX_TAG_SIZE = 0.030  # m: larger faces still carry a 3 cm tag
 BORDER_CELLS = 1  # white border around the black square, in cells (the square is 8 cells wide)
 FACE_CLEARANCE = 0.002  # m kept free between the border and each vertical edge of the face
 TAG_CENTRE_Z = 0.07  # m above the shelf floor: the wrist camera's height
 CARD_THICKNESS = 0.0002
 CARD_STANDOFF = 0.00005  # the print stands this far out of the face (no depth fighting with it)
-TAG_GROUP = 3
+TAG_GROUP = 3  # geom group of the tag cards: drawn in the RGB image only
 MAX_TAGGED_TYPE = 587 // C.MAX_VERTICES  # 73: the ids of every face of types 1..73 are in the family
 CELL_PIXELS = 12  # texture pixels per cell
 
