@@ -192,3 +192,26 @@ def test_detection_slots_keep_each_type_in_its_slot_and_recycle_the_oldest():
     assert types(8) == [8, 0, 0]
     with pytest.raises(ValueError, match="num_slots must be"):
         DetectionSlots(num_slots=11)
+
+
+def test_occrl_eval_passes_perception_through(tmp_path, capsys):
+    import json
+
+    from occrl.cli import main
+
+    assert main(["eval", "--method", "scripted", "--perception", "tags", "--tasks", "1"]) == 2
+    assert "--perception tags needs --world mujoco" in capsys.readouterr().err
+    out = tmp_path / "tags.json"
+    args = ["eval", "--method", "scripted", "--world", "mujoco", "--perception", "tags", "--objects", "1", "--tasks", "1", "--no-progress"]
+    assert main([*args, "--out", str(out)]) == 0
+    result = json.loads(out.read_text())
+    assert result["perception"] == "tags" and result["success_rate"] == 1.0  # the privileged script reaches its target
+    # run_tasks hands it to run_episodes, which builds the tag env
+    from occrl.baselines import ScriptedRetriever
+    from occrl.envs.episodes import run_episodes
+
+    built = []
+    run_episodes(
+        ScriptedRetriever(), task_scenes(2, [5], 1), [5], world="mujoco", perception="tags", on_env=lambda env: built.append(env.base_env)
+    )
+    assert [env.perception for env in built] == ["tags"] and len(built[0].tag_observers) == 1
