@@ -25,7 +25,8 @@ GRID_COLUMNS = [(1, 0.0), (2, 0.0), (3, 0.0), (1, 0.15), (2, 0.15), (3, 0.15)]
 
 def row(d: dict) -> str:
     lo, hi = d["success_ci95"]
-    where = f"{d.get('world', 'pymunk')}, stage {d['stage']}" + (f", objects {d['objects']}" if d.get("objects") else "")
+    where = f"{d.get('world', 'pymunk')}" + (f" ({d['perception']})" if d.get("perception") else "")
+    where += f", stage {d['stage']}" + (f", objects {d['objects']}" if d.get("objects") else "")
     return (
         f"| {d['method']} | {Path(str(d['network'])).name if d['network'] else '-'} | {where} | noise {d['noise']} | {d['tasks']} | "
         f"{d['success_rate']:.1%} ({lo:.1%}-{hi:.1%}) | {d['dropped']} | {d['mean_actions']:.1f} | {d['mean_seconds']:.2f} s |"
