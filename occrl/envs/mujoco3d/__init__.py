@@ -9,4 +9,8 @@ Needs the optional extra: ``pip install -e ".[mujoco]"``. Nothing here is import
   stepped with the same action interface as the 2D world.
 * :mod:`~occrl.envs.mujoco3d.model`: the MJCF model of shelf, objects and gripper.
 * :mod:`~occrl.envs.mujoco3d.camera`: the gripper camera's visibility (pixels or rays).
+* :mod:`~occrl.envs.mujoco3d.tags`: the fiducial tags on the objects (``perception="tags"``).
+* :mod:`~occrl.envs.mujoco3d.wrist_camera`: the wrist camera's RGB frames, lighting and noise.
+* :mod:`~occrl.envs.mujoco3d.tag_perception`: the scene's tag catalogue, the camera's calibration
+  and the detector reading the frames.
 """
