@@ -230,7 +230,7 @@ def add_eval(sub: argparse._SubParsersAction) -> None:
         choices=["geometric", "tags"],
         default="geometric",
         help="with --world mujoco: what the planner is told it sees: the objects more than 50 %% visible at their true poses "
-        '(geometric, the default) or what a tag detector decodes in the wrist camera\'s 640 x 480 image (tags; pip install -e ".[camera]")',
+        '(geometric) or what a tag detector decodes in the wrist camera\'s 640 x 480 image (tags; pip install -e ".[camera]")',
     )
     e.add_argument(
         "--noise",
