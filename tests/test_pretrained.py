@@ -101,3 +101,24 @@ def test_the_selfimit_networks_are_their_runs_iteration_80_and_their_cards_name_
     shipped = load_pretrained(name).state_dict()
     run = load_weights(Path(__file__).resolve().parents[1] / "checkpoints" / run_weights).state_dict()
     assert shipped.keys() == run.keys() and all(torch.equal(shipped[k], run[k]) for k in run)
+
+
+def test_the_wheel_carries_the_default_networks_and_names_where_the_others_are(tmp_path, monkeypatch):
+    """pyproject's package data names exactly the default networks' files (and the cards); in an
+    installation with only those, another name is refused with where to find it."""
+    import re
+    import shutil
+    from pathlib import Path
+
+    import occrl.pretrained as pretrained
+
+    pyproject = (Path(__file__).resolve().parents[1] / "pyproject.toml").read_text()
+    shipped = set(re.findall(r'"pretrained/([\w.-]+\.pt)"', pyproject))
+    assert shipped == {PRETRAINED_FILES[net] for net in DEFAULT_NETWORKS.values()}
+    for file in shipped | {"model_cards.json"}:
+        shutil.copy(pretrained.PRETRAINED_DIR / file, tmp_path / file)
+    monkeypatch.setattr(pretrained, "PRETRAINED_DIR", tmp_path)
+    assert pretrained.available() == sorted(set(DEFAULT_NETWORKS) | set(DEFAULT_NETWORKS.values()))
+    assert load_pretrained("occnet") is not None and model_card("occnet-ei")  # the cards travel with the wheel
+    with pytest.raises(FileNotFoundError, match=r"carries the default networks .* occrl/pretrained/\*\.pt of the source repository"):
+        pretrained_path("occnet-ei")

@@ -22,7 +22,9 @@ and Stochastic baselines). Each default name stands for one shipped network
   to 0.2.x): DAgger on the privileged scripted retriever, stage 1;
 - ``"occnet-ei"``: ``occnet-warmstart`` after expert iteration on stage 2.
 
-``model_card`` says how each was trained; docs/experiments.md has the figures.
+``model_card`` says how each was trained; the lab log (docs/lab/networks.md) has the figures.
+An installed wheel carries the two default networks (:data:`DEFAULT_NETWORKS`); the others load
+from a source checkout (``pip install -e .`` in a clone), and a wheel names where they are.
 """
 
 from __future__ import annotations
@@ -133,7 +135,12 @@ def pretrained_path(name: str) -> Path:
         raise ValueError(f"unknown pretrained network {name!r}; known: {sorted(PRETRAINED_FILES | DEFAULT_NETWORKS)}")
     path = PRETRAINED_DIR / PRETRAINED_FILES[network_name(name)]
     if not path.is_file():
-        raise FileNotFoundError(f"{path} is missing: this installation has no weights for {name!r} (shipped: {available()})")
+        raise FileNotFoundError(
+            f"{path} is missing: this installation has no weights for {name!r} (here: {available()}). "
+            f"A wheel carries the default networks {sorted(DEFAULT_NETWORKS)} only; the others are the files "
+            f"occrl/pretrained/*.pt of the source repository: install occrl from a clone (pip install -e .) "
+            f"or pass that file's path as the weights"
+        )
     return path
 
 
