@@ -9,7 +9,7 @@ and 0.25 (``--states`` per cell, the same shelves and actions for every setting)
 physics time per action relative to occrl 0.1.0's settings (``legacy``), measured in this run
 on the same shelves, alternating the settings in rounds so that a change in the machine's
 speed falls on both. ``--mujoco N`` also pushes the MuJoCo world N times per cell (a
-reference point; needs the mujoco extra). Source of the table in docs/decisions.md
+reference point; needs the mujoco extra). Source of the table in docs/lab/environment.md
 ("Physics validity").
 """
 

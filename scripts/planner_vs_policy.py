@@ -33,7 +33,7 @@ class Network:
     """One network: what it is, and the two evaluations of it on the held-out stage-2 tasks."""
 
     label: str
-    """The run and iteration (docs/decisions.md names each run's command)."""
+    """The run and iteration (docs/lab/stage2.md names each run's command)."""
     own: str
     """`occrl eval --method stochastic-gen` on it: its own sampled policy."""
     planner: str

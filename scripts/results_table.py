@@ -1,7 +1,7 @@
 """Markdown tables of `occrl eval --out` JSON files.
 
     python scripts/results_table.py results/heldout/*.json          # one row per file
-    python scripts/results_table.py --grid results/heldout/*.json   # methods x (stage, noise), as in docs/experiments.md
+    python scripts/results_table.py --grid results/heldout/*.json   # methods x (stage, noise), as in docs/lab/study.md
     python scripts/results_table.py --compare A.json B.json         # the same episodes; exclusive wins, McNemar p
 
 ``--compare`` matches two runs' tasks by seed: how many episodes are the same (outcome, drop,

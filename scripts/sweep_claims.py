@@ -1,4 +1,4 @@
-"""Check the papers' simulation claims against a sweep's results (docs/experiments.md, the papers' simulation study).
+"""Check the papers' simulation claims against a sweep's results (docs/lab/study.md, the papers' simulation study).
 
 Usage:
     python scripts/sweep_claims.py results/sweep/results.json            # the claims

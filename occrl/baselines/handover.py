@@ -5,7 +5,7 @@ reports the target in a world's episode, and a retriever (e.g. the hierarchical 
 from then on. Beyond the papers: a teacher for imitation (the hierarchical planner's search, then
 the clearing retriever deciding from observations) and a way to tell where a method loses tasks,
 in its search or its retrieval (the hybrid planner's search with the hierarchical planner's
-retrieval did not beat the hierarchical planner alone: docs/decisions.md).
+retrieval did not beat the hierarchical planner alone: docs/lab/search.md).
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
 Why it is part of the library: it is the strongest variant of the hybrid planner measured here
 (``occrl eval --method hybrid-ompl-4x4 --stage 2 --tasks 200 --weights occnet-takeover``: 69.5 %
 of the held-out stage-2 tasks, above the paper's hybrid planner on the same network;
-docs/experiments.md), and it is the bridge between the papers' two planners: the network's
+docs/lab/baselines.md), and it is the bridge between the papers' two planners: the network's
 hybrid planner and the hierarchical OMPL planner decide together, one candidate set holding the
 policy's roll-outs and the OMPL plan.
 
@@ -54,7 +54,7 @@ from occrl.baselines.hierarchical import HierarchicalPlanner
 
 __all__ = ["HybridOMPLPlanner", "ProposalRecord", "make_proposer", "rollout_actions", "with_proposal"]
 
-# the proposer's settings: those of the hierarchical DAgger teacher (docs/decisions.md), which
+# the proposer's settings: those of the hierarchical DAgger teacher (docs/lab/baselines.md), which
 # acts well on states another policy chose: closed-loop, searching from the nearer end and
 # stopping as soon as the target is seen, 1 s per OMPL query; unlike the teacher it keeps the
 # planner's default episode planning limit (120 s, the task's limit)
@@ -196,8 +196,7 @@ class HybridOMPLPlanner(HybridPlanner):
             ``proposer``).
         replan_inside: the default proposer plans from inside the shelf instead of backing out
             to search (:func:`make_proposer`; ``False``: it backs out, as the hierarchical
-            baseline does, and as this variant did until 2026-12-03's second session; not with
-            ``proposer``).
+            baseline does; not with ``proposer``).
         proposer: the hierarchical planner that proposes (default :func:`make_proposer`:
             closed-loop, nearest-end search stopping at first sight, ``plan_seconds`` per query,
             seeded with ``seed``); it must

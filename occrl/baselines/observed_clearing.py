@@ -2,7 +2,7 @@
 
 :class:`~occrl.baselines.clearing.ClearingRetriever` plans from the true state, so on the
 learner's own states its choices (which blocker, carried where) depend on objects the learner
-cannot see, and a network imitating it learns an average of its plans (docs/decisions.md).
+cannot see, and a network imitating it learns an average of its plans (docs/lab/training-clearing.md).
 :class:`ObservedClearingRetriever` makes the same decisions from the observation
 history alone: every object detected so far in the episode where it was last seen (a detector's
 identity, the type id; stale memories dropped as the hierarchical planner drops them,
@@ -15,7 +15,7 @@ retrieve and holds still with the gripper open (:data:`NO_TARGET_ACTION`). As a 
 (``occrl train --imitation-teacher clearing-observed``) it takes over in a share of the episodes
 at the first detection and the frames it acts on are the labels; its answers on the learner's
 own states are mostly "back out first", which the learner, trained
-on them, learned to do everywhere (docs/decisions.md).
+on them, learned to do everywhere (docs/lab/training-clearing.md).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Command line: ``occrl demo | train | eval | export | bench``.
+"""Command line: ``occrl demo | train | eval | export | bench | tags``.
 
 ``occrl demo`` runs the hybrid planner with the shipped network on a few cluttered shelves whose
 target starts hidden and writes a summary and a GIF. The parser is here; what each command does is

@@ -33,9 +33,9 @@ DEMO_STAGE = 2  # the demo's shelves: 5 to 10 objects
 DEMO_FIRST_SEED = 2024  # the demo looks at task seeds from this one on
 
 
-def demo_seeds(stage: int, count: int, first_seed: int, hidden_target: bool = True) -> list[int]:
+def demo_seeds(stage: int, count: int, first_seed: int, hidden_target: bool = True, world: str = "pymunk") -> list[int]:
     """The task seeds the demo plays: from ``first_seed`` on, the first ``count`` whose first
-    observation does not show the target (:func:`hidden_target_seeds`), or the next ``count`` seeds as they come when ``hidden_target`` is False.
+    observation in ``world`` does not show the target (:func:`hidden_target_seeds`), or the next ``count`` seeds as they come when ``hidden_target`` is False.
 
     Raises:
         ValueError: when fewer than ``count`` of the next ``50 * count`` shelves start with their target hidden.
@@ -52,7 +52,7 @@ def demo_seeds(stage: int, count: int, first_seed: int, hidden_target: bool = Tr
     seeds: list[int] = []
     end = first_seed + 50 * count
     for start in range(first_seed, end, 8):
-        seeds += hidden_target_seeds(stage, range(start, min(start + 8, end)))
+        seeds += hidden_target_seeds(stage, range(start, min(start + 8, end)), world)
         if len(seeds) >= count:
             return seeds[:count]
     raise ValueError(
@@ -61,9 +61,10 @@ def demo_seeds(stage: int, count: int, first_seed: int, hidden_target: bool = Tr
     )
 
 
-def hidden_target_seeds(stage: int, seeds: range | list[int]) -> list[int]:
+def hidden_target_seeds(stage: int, seeds: range | list[int], world: str = "pymunk") -> list[int]:
     """The task seeds among ``seeds`` (:func:`occrl.envs.episodes.task_scenes`) whose first
-    observation does not report the target, in seed order.
+    observation in ``world`` ("pymunk" or "mujoco", whose camera sees in 3D) does not report the
+    target, in seed order.
 
     Examples:
         >>> from occrl.cli.demo import hidden_target_seeds
@@ -75,7 +76,7 @@ def hidden_target_seeds(stage: int, seeds: range | list[int]) -> list[int]:
     from occrl.planners.recreate import recreate
 
     seeds = [int(s) for s in seeds]
-    env = make_env(batch_size=len(seeds), scenes=task_scenes(stage, seeds), seed=seeds, heatmap_target=False)
+    env = make_env(batch_size=len(seeds), scenes=task_scenes(stage, seeds), seed=seeds, heatmap_target=False, world=world)
     first = env.reset()
     env.close()
     return [seed for b, seed in enumerate(seeds) if not recreate(first[b]).target_detected]
@@ -113,7 +114,8 @@ def run_demo(args: argparse.Namespace) -> int:
             network = f"the shipped network {name}" + (f" ({network_name(name)})" if network_name(name) != name else "")
         label = f"the hybrid planner {m}x{h} with {network}"
     hidden = args.seed is None  # the default shelves: their target starts hidden
-    seeds = demo_seeds(args.stage, args.tasks, DEMO_FIRST_SEED if hidden else args.seed, hidden_target=hidden)
+    seeds = demo_seeds(args.stage, args.tasks, DEMO_FIRST_SEED if hidden else args.seed, hidden_target=hidden, world=args.world)
+    record_camera = args.world == "mujoco" and _gl_available()  # asked once, said once
     world = "the 2D pymunk world" if args.world == "pymunk" else "the 3D MuJoCo shelf"
     which = "whose target starts hidden" if hidden else "as given"
     print(f"occrl demo: {label}, in {world}")
@@ -123,7 +125,7 @@ def run_demo(args: argparse.Namespace) -> int:
     rows, frames_all, first_frames = [], [], 0
     for k, seed in enumerate(seeds):
         scene = Scene.sample(args.stage, seed=seed)
-        extra = {"world": "mujoco", "record_camera": _gl_available()} if args.world == "mujoco" else {}
+        extra = {"world": "mujoco", "record_camera": record_camera} if args.world == "mujoco" else {}
         if size is not None:  # the network's image size (the privileged methods read no image)
             extra["size"] = size
         env = make_env(batch_size=1, scenes=[scene], heatmap_target=False, remembered_detections=remembered, **extra)

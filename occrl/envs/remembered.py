@@ -1,6 +1,6 @@
 """Remembered detections: every object detected earlier in the episode kept at its last seen pose.
 
-Beyond the paper (docs/decisions.md, "Remembered detections"). The paper's observation shows
+Beyond the paper (docs/lab/network-probes.md, "Remembered detections"). The paper's observation shows
 only what the camera detects now; a target seen once and then hidden or out of view is left to
 the LSTM to remember, and the network forgets it within a few actions (its heat-map's mass on
 the target falls from 27 % while seen to 11 % one action after and 2.5 % eight or more after).

@@ -197,7 +197,7 @@ def make_occnet(preset: str | OccNetConfig = "paper", heatmap: bool = True, **ov
 
     ``heatmap=False`` builds the net without the heat-map head (greedy/stochastic baselines).
     The net is returned in eval mode: batch norm uses running statistics everywhere (collection,
-    planning and the loss), and the trainer refreshes them explicitly (docs/decisions.md).
+    planning and the loss), and the trainer refreshes them explicitly (docs/design/training.md).
 
     Examples:
         >>> import torch

@@ -172,8 +172,8 @@ class CameraModel:
         kwargs = {k: data[k] for k in CAMERA_KEYS if k in data}
         try:
             return cls(**kwargs)
-        except (TypeError, ValueError) as err:
-            raise type(err)(f"{source}: {err}") from None
+        except (TypeError, ValueError) as err:  # a file's bad value is bad input
+            raise ValueError(f"{source}: {err}") from None
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, CameraModel):

@@ -242,8 +242,8 @@ class TagCatalogue:
                     entries.append(
                         TagEntry(tag["tag_id"], obj["type_id"], obj["footprint"], obj["height"], tag["face"], tag["offset"], tag["size"])
                     )
-                except (TypeError, ValueError) as err:
-                    raise type(err)(f"{where}: {err}") from None
+                except (TypeError, ValueError) as err:  # a file's bad value is bad input
+                    raise ValueError(f"{where}: {err}") from None
         try:
             return cls(entries, data.get("dictionary", DEFAULT_DICTIONARY))
         except ValueError as err:

@@ -90,7 +90,7 @@ class HybridPlanner(TensorDictModuleBase):
             paper: the policy's own). A network whose spread has shrunk, e.g. after expert
             iteration, gives m nearly equal roll-outs and nothing to choose from; a floor keeps
             the m candidates apart (beyond the paper; on `occnet-ei` it did not raise stage-2
-            success: docs/decisions.md).
+            success: docs/design/planner.md).
         inference: how the roll-outs call the network (batched RHP): ``"torch"`` (the torch
             modules, bit for bit as the TensorDict modules) or ``"onnxruntime"`` (the network
             exported once, at construction, several times faster per call, equal to float
@@ -144,7 +144,7 @@ class HybridPlanner(TensorDictModuleBase):
         device = next(net.parameters()).device
         if device.type != "cpu":
             # roll-outs call the network on a few states at a time between pymunk steps: on an
-            # accelerator the transfers would cost more than the arithmetic (docs/decisions.md)
+            # accelerator the transfers would cost more than the arithmetic (docs/design/planner.md)
             raise ValueError(f"the hybrid planner runs its network on the CPU; this one is on {device}: pass net.to('cpu')")
         self.net = net.eval()
         self.m, self.h = int(m), int(h)

@@ -1,7 +1,7 @@
 """What occrl needs of a robot: a wrist-camera image, the gripper's state and pose, a planar action
 executed, and whether the task is over.
 
-Implement these six methods on top of your arm's driver (a UR5 with a Robotiq 2F-85 and a wrist
+Implement these seven methods on top of your arm's driver (a UR5 with a Robotiq 2F-85 and a wrist
 camera in the papers) and :func:`~occrl.robot.loop.run_on_robot` runs any occrl planner or policy on
 it. :class:`~occrl.robot.mujoco_robot.MujocoRobot` is one made of the MuJoCo shelf.
 

@@ -114,7 +114,7 @@ class PromotionConfig:
 
 @dataclass(frozen=True)
 class ImitationConfig:
-    """The imitation phase before PPO (beyond the paper: docs/decisions.md, "Training"): DAgger
+    """The imitation phase before PPO (beyond the paper: docs/design/training.md, "Training"): DAgger
     with a :class:`~occrl.training.teachers.Teacher` that labels the learner's frames and acts in a
     share ``beta`` of them.
 
@@ -156,7 +156,25 @@ class ImitationConfig:
         name = teacher.pop("name", None)
         if name not in TEACHERS:
             raise ValueError(f"imitation_teacher must be one of {tuple(TEACHERS)}, got {name!r}")
+        check_known_keys("imitation settings", d, cls, skip=("teacher",))
+        check_known_keys(f"{name} teacher settings", teacher, TEACHERS[name])
         return cls(**d, teacher=TEACHERS[name](**teacher))
+
+
+def check_known_keys(what: str, settings: dict, config_class: type, skip: tuple[str, ...] = ()) -> None:
+    """Refuse keys of ``settings`` that ``config_class`` (a dataclass) has no field for, naming the allowed ones.
+
+    Examples:
+        >>> from occrl.training.config import PromotionConfig, check_known_keys
+        >>> check_known_keys("promotion settings", {"bogus": 1}, PromotionConfig)
+        Traceback (most recent call last):
+            ...
+        ValueError: unknown promotion settings ['bogus']; allowed: ['eval_every', 'eval_tasks', 'rule', 'threshold', 'window']
+    """
+    allowed = {f.name for f in fields(config_class)} - set(skip)
+    unknown = sorted(set(settings) - allowed - set(skip))
+    if unknown:
+        raise ValueError(f"unknown {what} {unknown}; allowed: {sorted(allowed)}")
 
 
 @dataclass(frozen=True)
@@ -353,6 +371,7 @@ class TrainConfig:
             if isinstance(d["imitation"], dict):
                 d["imitation"] = ImitationConfig.from_dict(d["imitation"])
             if isinstance(d.get("promotion"), dict):
+                check_known_keys("promotion settings", d["promotion"], PromotionConfig)
                 d["promotion"] = PromotionConfig(**d["promotion"])
             unknown = set(d) - {f.name for f in fields(cls)}
             if unknown:

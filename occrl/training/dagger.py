@@ -192,7 +192,7 @@ class RetrievalTakeover(TensorDictModuleBase):
     For the "hybrid-acting" teacher with ``retrieval_takeover > 0``: the executed action is the
     label, so the retrieval labels are the retriever's own trajectory (an approach kept over
     steps, backed out of only when it fails), not its answers on states the planner reached (which
-    made the planner worse: docs/decisions.md). ``frames_taken_over`` / ``frames`` count the steps
+    made the planner worse: docs/lab/training-teachers.md). ``frames_taken_over`` / ``frames`` count the steps
     since :meth:`reset`.
 
     Examples:

@@ -15,7 +15,7 @@ __all__ = ["TRAIN_PRESETS", "get_train_config"]
 _CPU_MACHINE = dict(optimizer="adam", epochs=2, collector="multi", num_envs=32, heatmap_fraction=0.25)
 
 # What trains on these machines: the paper's network and loss, Adam at a higher learning rate,
-# and a DAgger warm start on the scripted retriever before PPO (see docs/decisions.md).
+# and a DAgger warm start on the scripted retriever before PPO (see docs/design/training.md).
 _CPU = TrainConfig(
     preset="cpu",
     **_CPU_MACHINE,
@@ -33,7 +33,7 @@ TRAIN_PRESETS: dict[str, TrainConfig] = {
     "cpu": _CPU,
     # PPO from a warm-started network (--init-weights occnet): small steps, no entropy bonus, a
     # value-head warm-up, a KL early stop, frozen batch-norm statistics, the paper's promotion.
-    # Why each: docs/decisions.md, "PPO fine-tuning".
+    # Why each: docs/design/training.md, "PPO fine-tuning".
     "cpu-finetune": TrainConfig(
         preset="cpu-finetune",
         **_CPU_MACHINE,
@@ -47,7 +47,7 @@ TRAIN_PRESETS: dict[str, TrainConfig] = {
     # The curriculum continued by imitation from a warm-started network (--init-weights occnet
     # --start-stage 2; choose the teacher with --imitation-teacher), the teacher acting on 30 % of
     # the steps, the paper's promotion check every 25 iterations, one worker replaying the
-    # previous stage. What each teacher achieved: docs/experiments.md, "Training".
+    # previous stage. What each teacher achieved: docs/lab/training-teachers.md, "Training".
     "cpu-curriculum": replace(
         _CPU,
         preset="cpu-curriculum",

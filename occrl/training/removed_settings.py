@@ -18,12 +18,12 @@ class RemovedSetting:
     why: str
 
 
-_EXPERIMENT = "an experiment that made no shipped network (docs/decisions.md)"
+_EXPERIMENT = "an experiment that made no shipped network (the lab log, docs/lab/)"
 # Settings removed from the library: a stored config (a checkpoint's) that names one at its "off"
 # value reads as if it did not; any other value is refused, naming the commit that still has it.
 REMOVED_SETTINGS: dict[str, RemovedSetting] = {
     **{
-        name: RemovedSetting(off, "eed1cea", "it only served experiments shown to hurt (docs/decisions.md)")
+        name: RemovedSetting(off, "eed1cea", "it only served experiments shown to hurt (the lab log, docs/lab/)")
         for name, off in (("ppo_bc_coeff", 0.0), ("ppo_bc_min_scale", None), ("freeze_policy_scale", False))
     },
     **{
@@ -59,7 +59,7 @@ def drop_removed_settings(stored: dict) -> dict:
         >>> drop_removed_settings({"task_copies": 4})
         Traceback (most recent call last):
             ...
-        ValueError: training setting task_copies=4 was removed from occrl (an experiment that made no shipped network (docs/decisions.md)); to run or resume with it, use the version that has it: git checkout 53b1240
+        ValueError: training setting task_copies=4 was removed from occrl (an experiment that made no shipped network (the lab log, docs/lab/)); to run or resume with it, use the version that has it: git checkout 53b1240
     """
     kept = dict(stored)
     for name, removed in REMOVED_SETTINGS.items():

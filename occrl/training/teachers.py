@@ -60,7 +60,7 @@ logger = logging.getLogger(__name__)
 # the hierarchical teacher: closed-loop (re-plans when the learner leaves its plan: 1 cm / 10 degrees),
 # 1 s per OMPL query, no episode time limit (labels, not a timed evaluation), a Search that starts at
 # the nearer end and ends once the target is seen (on 16 stage-2 tasks it then solved 16, with the
-# paper's full left-to-right sweeps 11: docs/decisions.md)
+# paper's full left-to-right sweeps 11: docs/design/training.md)
 HIERARCHICAL_TEACHER = dict(
     plan_seconds=1.0, follow_tolerance=(0.01, math.radians(10.0)), time_limit=1e6, sweep_from="nearest", stop_when_located=True
 )
@@ -185,7 +185,7 @@ class ObservedClearingTeacher(Teacher):
     (:class:`~occrl.baselines.observed_clearing.ObservedClearingRetriever`): the learner searches;
     from the first sight of the target the teacher acts in a share beta of the episodes, and only
     the frames it acted on are labels (on the learner's states its corrections are mostly "back
-    out first": docs/decisions.md). Collector "single"."""
+    out first": docs/design/training.md). Collector "single"."""
 
     name: ClassVar[str] = "clearing-observed"
 
@@ -201,7 +201,7 @@ class ObservedClearingTeacher(Teacher):
     action_noise: float = 0.0
     """Where the teacher acts, Gaussian noise of this standard deviation (action units) is added to
     its executed motion, the label staying its decision (DART: demonstrations of recoveries from a
-    learner's small errors; beyond the paper, docs/decisions.md)."""
+    learner's small errors; beyond the paper, docs/design/training.md)."""
     label_episodes: str = "all"
     """Which episodes' frames are labels: "all", or "success" (only the frames of episodes that end
     in success within the batch; the others still train the value and heat-map heads)."""
@@ -362,7 +362,7 @@ class HierarchicalTeacher(Teacher):
 @dataclass(frozen=True)
 class SelfTeacher(Teacher):
     """Self-imitation: the learner acts and its own actions in the episodes that succeed are the
-    labels (a policy-gradient step on the success probability; beyond the paper: docs/decisions.md,
+    labels (a policy-gradient step on the success probability; beyond the paper: docs/design/training.md,
     "Cloning only successes")."""
 
     name: ClassVar[str] = "self"

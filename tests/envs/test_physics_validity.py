@@ -1,5 +1,5 @@
 """Physics validity: the world measures its own penetration, and the default physics keeps solids
-apart under hard pushing (docs/decisions.md, "Physics validity")."""
+apart under hard pushing (docs/lab/environment.md, "Physics validity")."""
 
 import logging
 import math

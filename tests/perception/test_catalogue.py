@@ -82,3 +82,14 @@ def test_bad_catalogue_is_named(tmp_path, data, message):
 def test_missing_file():
     with pytest.raises(FileNotFoundError, match="catalogue file nowhere.json does not exist"):
         TagCatalogue.from_json("nowhere.json")
+
+
+def test_a_catalogue_value_of_the_wrong_type_is_a_value_error_the_cli_reports(tmp_path, capsys):
+    from occrl.cli import main
+
+    path = tmp_path / "tags.json"
+    path.write_text(json.dumps({"objects": [obj([tag()], height="0.12")]}))
+    with pytest.raises(ValueError, match=r"objects\[0\]"):
+        TagCatalogue.from_json(path)
+    assert main(["tags", str(path), "--out", str(tmp_path / "sheet.png")]) == 2
+    assert "occrl tags: error:" in capsys.readouterr().err

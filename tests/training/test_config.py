@@ -94,3 +94,14 @@ def test_a_resumed_run_compares_settings_in_either_form():
     onnx = get_train_config("tiny", imitation_iters=3, imitation_teacher="hybrid", teacher_inference="onnxruntime")
     assert same_run_settings(cfg.to_dict(), onnx.to_dict())  # inference changes rounding only
     assert not same_run_settings(cfg.to_dict(), get_train_config("tiny", imitation_iters=4, imitation_teacher="hybrid").to_dict())
+
+
+def test_unknown_nested_settings_are_refused_naming_the_allowed_ones():
+    nested = get_train_config("tiny", imitation_iters=5, imitation_teacher="clearing-observed").to_dict()
+    for where, bad in (("imitation", {"bogus": 1}), ("promotion", {"bogus": 1})):
+        broken = {**nested, where: {**nested[where], **bad}}
+        with pytest.raises(ValueError, match=r"unknown .*settings \['bogus'\]; allowed: "):
+            TrainConfig.from_dict(broken)
+    broken = {**nested, "imitation": {**nested["imitation"], "teacher": {**nested["imitation"]["teacher"], "bogus": 1}}}
+    with pytest.raises(ValueError, match=r"unknown clearing-observed teacher settings \['bogus'\]"):
+        TrainConfig.from_dict(broken)

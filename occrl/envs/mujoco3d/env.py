@@ -87,7 +87,9 @@ class MujocoShelfEnv(ShelfEnv):
         wrist_camera: with ``perception="tags"``, the RGB camera's image size, field of view,
             lighting and image noise (:class:`~occrl.envs.mujoco3d.wrist_camera.WristCameraSettings`;
             640 x 480, 70 degrees across, nominal light, no noise by default). The lighting and
-            noise draw from a stream spawned from each world's seed, so a seed fixes the images too.
+            noise draw from a stream spawned from each world's seed: with no image noise (the
+            default) a seed fixes the images; with image noise, a world's stream also moves on when
+            another world of its batch resets, so seeded noisy images need ``batch_size=1``.
 
     Raises:
         ImportError: mujoco or dm_control are missing (the message names the extra to install).

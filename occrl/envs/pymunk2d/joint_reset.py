@@ -5,7 +5,7 @@ the world's cold start (:class:`occrl.envs.pymunk2d.world.ShelfWorld`) wants eac
 function of the snapshot alone, which a new joint gives. pymunk offers no setter for ``jAcc``
 and its C structs are opaque to its cffi module, so a new joint used to be built for every
 joint at every action (the physics of a 4x4 planner decision took 15.4 ms with new joints and
-11.4 ms with kept ones: docs/experiments.md, *Planning and evaluation*). This module writes the
+11.4 ms with kept ones: docs/lab/speed.md, *Planning and evaluation*). This module writes the
 impulse in place instead, at the byte offsets of Chipmunk's struct layout (chipmunk_structs.h,
 64-bit): the pivot joint's ``jAcc`` vector and the gear joint's ``jAcc`` scalar.
 

@@ -5,7 +5,7 @@ pixels: its ``collision_slop`` of 0.1 tolerates 10 cm of overlap here). :data:`D
 what every env, planner and baseline uses; :data:`LEGACY_PHYSICS` reproduces the physics of
 occrl 0.1.0 bit for bit, for benchmarks and for re-running figures made before the change.
 ``benchmarks/physics_validity.py`` measures penetration and cost of any settings side by side and
-docs/decisions.md ("Physics validity") gives the measurements behind the defaults.
+docs/lab/environment.md ("Physics validity") gives the measurements behind the defaults.
 """
 
 from __future__ import annotations

@@ -74,7 +74,7 @@ class ShelfWorld(FingerActuation):
         noise: physics/shape noise level (DESIGN: 0 to 0.25) applied before each action.
         rng: generator for the noise, the only randomness in the world.
         physics: integration settings (step size, solver, finger model); the default holds
-            penetration <= 2 mm under hard pushing (docs/decisions.md, "Physics validity").
+            penetration <= 2 mm under hard pushing (docs/lab/environment.md, "Physics validity").
 
     After each :meth:`step`, :attr:`penetration` is the deepest overlap (m) between any two
     bodies or a body and a wall, and :attr:`crossed_wall` says whether an object's centroid is
