@@ -32,6 +32,7 @@ from occrl.modules.weights import load_weights
 from occrl.planners import HybridPlanner
 from occrl.training.dagger import ExpertMixPolicy, OnlineTeacherPolicy, RetrievalTakeover, label_with_expert, label_with_planner
 from occrl.training.dagger import since_first_sight
+from occrl.training.run_folder import file_sha256
 from occrl.training.stats import successful_episode_frames
 
 if TYPE_CHECKING:  # the settings of a run hold a teacher; a teacher checks itself against them
@@ -82,7 +83,7 @@ def teacher_network(value: str) -> OccNet:
     net = load_weights(path)
     if not net.config.heatmap:
         raise ValueError(f"teacher_weights {value!r} has no heat-map head; the hybrid planner needs one")
-    logger.info("the hybrid-acting teacher plans with the fixed network %s", path)
+    logger.info("the hybrid-acting teacher plans with the fixed network %s (sha256 %s)", path, file_sha256(path)[:12])
     return net
 
 
