@@ -157,6 +157,20 @@ class Teacher:
 
 
 @dataclass(frozen=True)
+class LearnerActsTeacher(Teacher):
+    """A teacher that only labels: the learner acts in every step (no expert acts, ``beta`` 0)."""
+
+    def make_expert(self, acting_net: OccNet, seed: int, fixed_net: OccNet | None = None) -> TensorDictModuleBase | None:
+        return None
+
+    def collection_policy(self, acting_policy: TensorDictModuleBase, expert: TensorDictModuleBase | None) -> TensorDictModuleBase:
+        return acting_policy
+
+    def beta(self, iteration: int, imitation: ImitationConfig) -> float:
+        return 0.0
+
+
+@dataclass(frozen=True)
 class ScriptedTeacher(Teacher):
     """The privileged scripted retriever (reach, grasp, pull: it reads the true poses) acts in a
     share beta of the steps and labels every frame."""
@@ -232,7 +246,7 @@ class ObservedClearingTeacher(Teacher):
 
 
 @dataclass(frozen=True)
-class HybridTeacher(Teacher):
+class HybridTeacher(LearnerActsTeacher):
     """Expert iteration: the learner acts, and the hybrid 4x4 planner on the current network labels
     every frame (a teacher that, like the learner, sees only detections)."""
 
@@ -248,15 +262,6 @@ class HybridTeacher(Teacher):
         check_choice(self.name, "inference", self.inference, TEACHER_INFERENCE)
         if not core.heatmap:
             raise ValueError(f"imitation_teacher={self.name!r} needs the heat-map head (the hybrid planner uses it)")
-
-    def make_expert(self, acting_net: OccNet, seed: int, fixed_net: OccNet | None = None) -> TensorDictModuleBase | None:
-        return None
-
-    def collection_policy(self, acting_policy: TensorDictModuleBase, expert: TensorDictModuleBase | None) -> TensorDictModuleBase:
-        return acting_policy
-
-    def beta(self, iteration: int, imitation: ImitationConfig) -> float:
-        return 0.0  # the learner acts
 
     def label(self, data: TensorDictBase, expert: TensorDictModuleBase | None, acting_net: OccNet, seed: int) -> None:
         label_with_planner(data, acting_net, seed=seed, inference=self.inference)
@@ -361,7 +366,7 @@ class HierarchicalTeacher(Teacher):
 
 
 @dataclass(frozen=True)
-class SelfTeacher(Teacher):
+class SelfTeacher(LearnerActsTeacher):
     """Self-imitation: the learner acts and its own actions in the episodes that succeed are the
     labels (a policy-gradient step on the success probability; beyond the paper: docs/design/training.md,
     "Cloning only successes")."""
@@ -378,15 +383,6 @@ class SelfTeacher(Teacher):
                 "imitation_teacher='self' needs label_episodes='success': the learner's own actions of every "
                 "episode as labels teach nothing (their expected gradient is zero)"
             )
-
-    def make_expert(self, acting_net: OccNet, seed: int, fixed_net: OccNet | None = None) -> TensorDictModuleBase | None:
-        return None
-
-    def collection_policy(self, acting_policy: TensorDictModuleBase, expert: TensorDictModuleBase | None) -> TensorDictModuleBase:
-        return acting_policy
-
-    def beta(self, iteration: int, imitation: ImitationConfig) -> float:
-        return 0.0  # the learner acts
 
     def label(self, data: TensorDictBase, expert: TensorDictModuleBase | None, acting_net: OccNet, seed: int) -> None:
         data.set("expert_action", data.get("action").clone())  # the learner acted
