@@ -1,6 +1,8 @@
 """The networks shipped in the package: all present, loadable, with a model card."""
 
 import json
+import subprocess
+from pathlib import Path
 
 import pytest
 import torch
@@ -11,6 +13,22 @@ from occrl.pretrained import DEFAULT_NETWORKS, PRETRAINED_FILES, available, load
 # the training facts a card records; a file's own record (its "meta", written at export) keeps them
 # while the card's names (summary, init_weights) follow renames (occnet -> occnet-warmstart in 0.3.0)
 FACTS = ("train_preset", "seed", "iterations", "frames", "cpu_hours", "wall_hours", "stage_reached", "phase")
+
+REPO = Path(__file__).resolve().parents[1]
+# the training runs' checkpoints left the tree at this commit; git history keeps them
+RUNS_COMMIT = "53b1240"
+
+
+def run_weights_state(run_file: str, tmp_path: Path) -> dict:
+    """The state dict of ``checkpoints/RUN_FILE`` as committed at ``RUNS_COMMIT`` (skips without that history)."""
+    from occrl.modules.weights import load_weights
+
+    blob = subprocess.run(["git", "show", f"{RUNS_COMMIT}:checkpoints/{run_file}"], cwd=REPO, capture_output=True)
+    if blob.returncode != 0:
+        pytest.skip(f"needs the git history of commit {RUNS_COMMIT} (a full clone): {blob.stderr.decode().strip()}")
+    path = tmp_path / Path(run_file).name
+    path.write_bytes(blob.stdout)
+    return load_weights(path).state_dict()
 
 
 @pytest.mark.parametrize("name", sorted(PRETRAINED_FILES))
@@ -64,18 +82,13 @@ def test_occnet_ei_is_occnet_warmstart_trained_further_and_the_cli_takes_its_nam
     assert json.loads(out.read_text())["network"] == "occnet-ei"
 
 
-def test_occnet_takeover_is_the_takeover_runs_iteration_75_and_its_card_names_the_recipe():
-    from occrl.modules.weights import load_weights
-
+def test_occnet_takeover_is_the_takeover_runs_iteration_75_and_its_card_names_the_recipe(tmp_path):
     card = model_card("occnet-takeover")
     assert card["init_weights"] == "occnet-warmstart.pt" and card["iterations"] == 75 and card["frames"] == 30_000
     recipe = card["settings_beyond_preset"]
     assert recipe["imitation_teacher"] == "hybrid-acting" and recipe["retrieval_takeover"] == 0.5
     shipped = load_pretrained("occnet-takeover").state_dict()
-    from pathlib import Path
-
-    run_weights = Path(__file__).resolve().parents[1] / "checkpoints" / "retrieval-takeover50-seed0" / "weights_iteration75.pt"
-    run = load_weights(run_weights).state_dict()
+    run = run_weights_state("retrieval-takeover50-seed0/weights_iteration75.pt", tmp_path)
     assert shipped.keys() == run.keys() and all(torch.equal(shipped[k], run[k]) for k in run)
 
 
@@ -86,11 +99,7 @@ def test_occnet_takeover_is_the_takeover_runs_iteration_75_and_its_card_names_th
         ("occnet-noheatmap-selfimit", "occnet-noheatmap-takeover", "selfimit-noheatmap/weights_iteration80.pt"),
     ],
 )
-def test_the_selfimit_networks_are_their_runs_iteration_80_and_their_cards_name_the_whole_recipe(name, start, run_weights):
-    from pathlib import Path
-
-    from occrl.modules.weights import load_weights
-
+def test_the_selfimit_networks_are_their_runs_iteration_80_and_their_cards_name_the_whole_recipe(name, start, run_weights, tmp_path):
     card = model_card(name)
     assert card["iterations"] == 80 and card["frames"] == 128_000 and card["stage_reached"] == 2
     assert card["settings_beyond_preset"]["imitation_teacher"] == "self" and card["settings_beyond_preset"]["label_episodes"] == "success"
@@ -99,7 +108,7 @@ def test_the_selfimit_networks_are_their_runs_iteration_80_and_their_cards_name_
     assert f"--init-weights {start}" in fit["command"] and fit["frames"] is None
     assert card["recipe_frames"] == data9["frames"] + data10["frames"] + card["frames"] == 120_000 + 32_000 + 128_000
     shipped = load_pretrained(name).state_dict()
-    run = load_weights(Path(__file__).resolve().parents[1] / "checkpoints" / run_weights).state_dict()
+    run = run_weights_state(run_weights, tmp_path)
     assert shipped.keys() == run.keys() and all(torch.equal(shipped[k], run[k]) for k in run)
 
 
@@ -108,7 +117,6 @@ def test_the_wheel_carries_the_default_networks_and_names_where_the_others_are(t
     installation with only those, another name is refused with where to find it."""
     import re
     import shutil
-    from pathlib import Path
 
     import occrl.pretrained as pretrained
 
