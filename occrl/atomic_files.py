@@ -7,7 +7,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-__all__ = ["write_text_atomic"]
+__all__ = ["write_text_atomic", "write_bytes_atomic"]
 
 
 def write_text_atomic(path: str | Path, text: str) -> None:
@@ -22,11 +22,16 @@ def write_text_atomic(path: str | Path, text: str) -> None:
         >>> target.read_text(), sorted(p.name for p in target.parent.iterdir())
         ('{"tasks": 3}', ['result.json'])
     """
+    write_bytes_atomic(path, text.encode())
+
+
+def write_bytes_atomic(path: str | Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` atomically (creating the parent folder); see :func:`write_text_atomic`."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".tmp")
-    with open(tmp, "w") as f:
-        f.write(text)
+    with open(tmp, "wb") as f:
+        f.write(data)
         f.flush()
         os.fsync(f.fileno())
     os.replace(tmp, path)

@@ -8,7 +8,7 @@ Reads the rows written by ``occrl eval --sweep`` (``summarize_sweep``) and print
 the papers (Sec. VI-C), the figures that test it, whether this sweep agrees, and whether the
 difference the verdict rests on is beyond the spread. "Clearly" means the 95 % intervals do not
 overlap; points are compared only where both methods were run. Where the sweep's episodes lie
-beside ``results.json`` (``points/``), two methods are compared on the same tasks by the exact
+beside ``results.json`` (``points.json.gz`` or ``points/``), two methods are compared on the same tasks by the exact
 McNemar test (tasks only one of them solved; "beyond the spread": p < 0.05), else by whether
 their intervals separate. Slopes over an axis get a 95 % interval from a parametric bootstrap
 (each point's successes redrawn from its rate, 2,000 draws, fixed seed).
@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from occrl.eval.runner import mcnemar_p, wilson_interval
-from occrl.eval.sweep import point_episodes, sweep_points
+from occrl.eval.sweep_store import point_episodes, sweep_points
 
 BASELINES = ["greedy", "stochastic", "stochastic-gen", "hierarchical"]
 
@@ -38,7 +38,7 @@ def load(path: str) -> dict:
 
 
 def load_episodes(path: str) -> dict:
-    """{(sweep, method, value): {seed: success}} from the ``points/`` folder beside ``results.json`` (empty if none)."""
+    """{(sweep, method, value): {seed: success}} from the points beside ``results.json`` (empty if none)."""
     return {
         (p["sweep"], p["method"], float(p["value"])): {seed: e.success for seed, e in point_episodes(p).items()}
         for p in sweep_points(Path(path).parent)

@@ -1,7 +1,7 @@
 """Two sweep folders compared point by point on the same tasks: what changed between them for a method.
 
 Usage:
-    python scripts/sweep_compare.py results/sweep-v3 results/sweep-physics2-clutter-n015 --method hybrid-4x4
+    python scripts/sweep_compare.py SWEEP_NOISE0 SWEEP_NOISE015 --method hybrid-4x4
     python scripts/sweep_compare.py A B --method hierarchical --sweep clutter --groups 1-5,6-10
 
 For every point (sweep, value) both folders hold for ``--method``, the tasks only A solved, only
@@ -17,7 +17,7 @@ import argparse
 from pathlib import Path
 
 from occrl.eval.runner import mcnemar_p
-from occrl.eval.sweep import point_episodes, sweep_points
+from occrl.eval.sweep_store import point_episodes, sweep_points
 
 
 def method_points(folder: Path, method: str, sweep: str) -> dict[float, dict[int, bool]]:
@@ -62,15 +62,17 @@ def compare(a: dict[float, dict[int, bool]], b: dict[float, dict[int, bool]], gr
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("a", type=Path, help="sweep folder A (holds points/)")
+    parser.add_argument("a", type=Path, help="sweep folder A (as occrl eval --sweep --out wrote it)")
     parser.add_argument("b", type=Path, help="sweep folder B")
     parser.add_argument("--method", required=True, help="method name, as in the points' file names")
     parser.add_argument("--sweep", default="clutter", choices=["clutter", "noise"])
     parser.add_argument("--groups", default="1-5,6-10", help="value ranges to pool, e.g. 1-5,6-10 ('' for none)")
     args = parser.parse_args()
     for folder in (args.a, args.b):
-        if not (folder / "points").is_dir():
-            parser.error(f"{folder} has no points/ folder: give the folder a sweep wrote (occrl eval --sweep --out)")
+        if not sweep_points(folder):
+            parser.error(
+                f"{folder} holds no sweep points (points.json.gz or points/): give the folder a sweep wrote (occrl eval --sweep --out)"
+            )
     print(f"{args.method}, {args.sweep} sweep: A = {args.a}, B = {args.b}\n")
     print(
         compare(method_points(args.a, args.method, args.sweep), method_points(args.b, args.method, args.sweep), parse_groups(args.groups))

@@ -32,7 +32,8 @@ from tqdm import tqdm
 from occrl.envs.episodes import task_scenes
 from occrl.eval.methods import METHODS, is_method, make_method, method_network
 from occrl.eval.runner import EVAL_SEED_BASE
-from occrl.eval.sweep import SCENE_STAGE, point_episodes, sweep_points
+from occrl.eval.sweep import SCENE_STAGE
+from occrl.eval.sweep_store import point_episodes, sweep_points
 
 STUDY_METHODS = ["hybrid-2x2", "hybrid-4x4", "hybrid-6x6", "hybrid-lim-4x4", "greedy", "stochastic", "stochastic-gen", "hierarchical"]
 

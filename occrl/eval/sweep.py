@@ -8,7 +8,8 @@ Two sweeps, the same task seeds for every method:
 
 Each finished point (method, sweep, value) is cached as JSON under ``out/points/``, so an
 interrupted sweep resumes where it stopped, and a point can be extended by more task seeds later
-(``chunk`` runs the sweep in rounds: every point first gets ``chunk`` tasks, then the next ones). ``summarize_sweep`` writes ``results.csv`` and
+(``chunk`` runs the sweep in rounds: every point first gets ``chunk`` tasks, then the next ones);
+a finished sweep packs its points into ``out/points.json.gz`` (:mod:`occrl.eval.sweep_store`). ``summarize_sweep`` writes ``results.csv`` and
 ``results.json``; ``plot_sweep`` draws the paper's Fig. 5 layout (success, time and actions per
 task against clutter and against noise, one line per method).
 """
@@ -34,6 +35,7 @@ from occrl.envs.episodes import EPISODE_TIMING, EpisodeResult, episode_end, seed
 from occrl.eval.film import episode_frames, save_film_strip
 from occrl.eval.methods import is_planner, make_method, method_network
 from occrl.eval.runner import EVAL_SEED_BASE, run_tasks, summarize
+from occrl.eval.sweep_store import pack_points, point_episodes, point_path, read_point, sweep_points, unpack_points
 
 __all__ = [
     "SWEEPS",
@@ -43,8 +45,6 @@ __all__ = [
     "plot_sweep",
     "sweep_films",
     "noise_sweep_objects",
-    "sweep_points",
-    "point_episodes",
 ]
 
 logger = logging.getLogger(__name__)
@@ -69,10 +69,6 @@ def noise_sweep_objects(seed: int) -> int:
         [8, 8, 7, 6, 9]
     """
     return task_object_count(seed, 1, 10)
-
-
-def _point_path(out: Path, method: str, sweep: str, value: float) -> Path:
-    return out / "points" / f"{method}__{sweep}__{value:g}.json"
 
 
 def _run_point(
@@ -124,25 +120,26 @@ def run_sweep(
         >>> from occrl.eval.sweep import run_sweep
         >>> out = run_sweep(["scripted"], tempfile.mkdtemp(), tasks=1, sweeps=("clutter",),
         ...                 values={"clutter": [1.0]}, progress=False)
-        >>> sorted(os.listdir(out)), os.listdir(out / "points")
-        (['points', 'results.csv', 'results.json', 'sweep.png'], ['scripted__clutter__1.json'])
+        >>> sorted(os.listdir(out))
+        ['points.json.gz', 'results.csv', 'results.json', 'sweep.png']
     """
     if tasks < 1 or (chunk is not None and chunk < 1):
         raise ValueError(f"tasks and chunk must be >= 1, got tasks={tasks}, chunk={chunk}")
     out = Path(out)
+    unpack_points(out)  # a finished sweep being extended (or an interrupted pack)
     (out / "points").mkdir(parents=True, exist_ok=True)
     chunk = chunk or tasks
     points = [(sweep, value, method) for sweep in sweeps for value in (values or SWEEPS)[sweep] for method in methods]
     all_seeds = set(range(first_seed, first_seed + tasks))
-    to_run = sum(len(all_seeds - set(point_episodes(_cached_point(_point_path(out, m, sw, v))))) for sw, v, m in points)
+    to_run = sum(len(all_seeds - set(point_episodes(read_point(point_path(out, m, sw, v))))) for sw, v, m in points)
     # one bar (and ETA) for the whole sweep; the points advance it task by task
     bar = tqdm(total=to_run, desc=f"sweep ({len(points)} points)", unit="task", disable=not progress)
     networks = {m: method_network(m, weights) for m in methods}  # (name, SHA-256 of the weights) per method
     for upto in list(range(chunk, tasks, chunk)) + [tasks]:
         seeds = list(range(first_seed, first_seed + upto))
         for sweep, value, method in points:
-            path = _point_path(out, method, sweep, value)
-            cached = _cached_point(path)  # read once: its episodes and its noise
+            path = point_path(out, method, sweep, value)
+            cached = read_point(path)  # read once: its episodes and its noise
             done = point_episodes(cached)
             if done and min(done) != first_seed:
                 raise ValueError(
@@ -188,6 +185,7 @@ def run_sweep(
             write_text_atomic(path, json.dumps(point))  # a point is cached whole or not at all
             logger.info("%s %s=%g (%d tasks): success %.2f", method, sweep, value, len(results), point["success_rate"])
     bar.close()
+    pack_points(out)
     summarize_sweep(out)
     plot_sweep(out)
     if films:
@@ -218,34 +216,8 @@ def _point_noise(point: dict) -> float:
     return float(point.get("noise", point["value"] if point["sweep"] == "noise" else 0.0))
 
 
-def _cached_point(path: Path) -> dict | None:
-    """A cached point as written (None when there is no point yet)."""
-    return json.loads(path.read_text()) if path.exists() else None
-
-
-def point_episodes(point: dict | None) -> dict[int, EpisodeResult]:
-    """The episodes a cached point holds, by task seed (empty for no point).
-
-    Examples:
-        >>> from occrl.eval.sweep import point_episodes
-        >>> point = {"episodes": [{"seed": 7, "objects": 1, "success": True, "dropped": False, "actions": 9, "seconds": 0.3}]}
-        >>> point_episodes(point)[7].success, point_episodes(None)
-        (True, {})
-    """
-    return {} if point is None else {e["seed"]: EpisodeResult(**e) for e in point["episodes"]}
-
-
-def sweep_points(out: str | Path, method: str | None = None, sweep: str | None = None) -> list[dict]:
-    """The cached points of the sweep folder ``out`` (``out/points/*.json``) as written, those of
-    one ``method`` and / or one ``sweep`` ("clutter", "noise") when given; their episodes:
-    :func:`point_episodes`. What the analysis scripts read (``scripts/sweep_claims.py``,
-    ``sweep_compare.py``, ``timing_table.py``)."""
-    points = [json.loads(p.read_text()) for p in sorted((Path(out) / "points").glob("*.json"))]
-    return [p for p in points if method in (None, p["method"]) and sweep in (None, p["sweep"])]
-
-
 def summarize_sweep(out: str | Path) -> list[dict]:
-    """Collect the cached points under ``out/points/`` into ``results.json`` and ``results.csv``
+    """Collect the points of ``out`` (:func:`~occrl.eval.sweep_store.sweep_points`) into ``results.json`` and ``results.csv``
     (one row per method, sweep and value, with the success rate's 95 % interval); returns the rows.
 
     Examples:

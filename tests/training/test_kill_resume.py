@@ -12,6 +12,8 @@ from pathlib import Path
 import pytest
 import torch
 
+from occrl.eval.sweep_store import sweep_points
+
 # Runs `occrl train` in a child process; with a fault injected, the child SIGKILLs itself during its
 # k-th file write: "write-K" leaves a half-written file at the temporary name, "rename-K" a complete
 # temporary file that was never renamed into place.
@@ -122,9 +124,8 @@ def test_an_evaluation_killed_while_writing_leaves_no_partial_result(tmp_path):
 
 def _points(folder: Path) -> dict:
     out = {}
-    for p in sorted((folder / "points").glob("*.json")):
-        point = json.loads(p.read_text())
-        out[p.name] = [{k: v for k, v in e.items() if k != "seconds"} for e in point["episodes"]]
+    for point in sweep_points(folder):
+        out[point["method"], point["sweep"], point["value"]] = [{k: v for k, v in e.items() if k != "seconds"} for e in point["episodes"]]
     return out
 
 
@@ -151,4 +152,4 @@ def test_a_sweep_killed_at_any_moment_resumes_without_partial_or_duplicated_task
     sweep(killed, "plain", kill_after=random.Random(1).uniform(3.0, 8.0))
     sweep(killed)
     assert _points(killed) == _points(tmp_path / "straight")  # every task once, the same outcomes
-    assert not list((killed / "points").glob("*.tmp"))
+    assert not list((killed / "points").glob("*.tmp")) and not list(killed.glob("*.tmp"))
