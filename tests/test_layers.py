@@ -21,7 +21,7 @@ def test_no_private_names_cross_modules():
     assert private_imports() == []
 
 
-# Imports only go down these layers (issue 18): a module may import from a lower level only.
+# Imports only go down these layers: a module may import from a lower level only.
 LEVELS = {
     "perception": -1,  # camera perception needs no torch: below envs, which may use it
     "atomic_files": 0,

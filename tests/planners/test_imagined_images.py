@@ -1,4 +1,4 @@
-"""One observation pipeline (issue 18 item 1): the image a planner imagines for the state it
+"""One observation pipeline: the image a planner imagines for the state it
 recreates from an observation is the env's image of that observation, pixel for pixel."""
 
 import numpy as np

@@ -147,6 +147,15 @@ def test_planner_vs_policy_pairs_each_network_and_fits_the_line(tmp_path):
     out = tmp_path / "plot.png"
     pvp.plot(rows[:3], out)
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # the archived evaluations are the files as committed, none of them also in the tree
+    archived = pvp.archived_evaluations()
+    assert archived and not [path for path in archived if (ROOT / path).exists()]
+    history = subprocess.run(["git", "cat-file", "-e", "53b1240^{commit}"], cwd=ROOT, capture_output=True).returncode == 0
+    for path in archived if history else []:  # a clone without that history checks the rest only
+        assert (
+            json.loads(subprocess.run(["git", "show", f"53b1240:{path}"], cwd=ROOT, capture_output=True, check=True).stdout)
+            == archived[path]
+        )
 
 
 @pytest.mark.integration
