@@ -189,7 +189,7 @@ class HybridOMPLPlanner(HybridPlanner):
     ``occrl eval``.
 
     Args:
-        net, m, h, limited, max_roots, gamma, seed, batched, rollout_min_scale, inference: as
+        net, m, h, limited, max_roots, gamma, seed, batched, inference: as
             :class:`~occrl.planners.HybridPlanner` (``batch_worlds`` is not offered: the proposals
             are made world by world).
         plan_seconds: time budget of one OMPL query of the default proposer (1 s; not with
@@ -201,12 +201,6 @@ class HybridOMPLPlanner(HybridPlanner):
             closed-loop, nearest-end search stopping at first sight, ``plan_seconds`` per query,
             seeded with ``seed``); it must
             have a ``follow_tolerance``, since the hybrid planner often leaves its plans.
-        proposal_bonus: added to the proposal roll-out's return from every root before the
-            roll-outs and roots are compared (0, the default: scored exactly as the policy's
-            roll-outs), so the plan is followed unless a policy roll-out beats it by more; a
-            prior for the plan, in return units (one action's step penalty is 1). Any finite
-            number; a large one makes the proposer decide alone. The decisions' returns carry it,
-            :attr:`proposals` records the returns without it.
 
     Examples:
         >>> from occrl.envs import make_env
@@ -230,20 +224,16 @@ class HybridOMPLPlanner(HybridPlanner):
         gamma: float = C.GAMMA,
         seed: int = 0,
         batched: bool = True,
-        rollout_min_scale: float = 0.0,
         inference: str = "torch",
         plan_seconds: float | None = None,
         proposer: HierarchicalPlanner | None = None,
         replan_inside: bool | None = None,
-        proposal_bonus: float = 0.0,
     ) -> None:
-        if not math.isfinite(proposal_bonus):
-            raise ValueError(f"proposal_bonus must be a finite number (return units), got {proposal_bonus!r}")
         if proposer is not None and plan_seconds is not None:
             raise ValueError("plan_seconds sets the default proposer's budget; with proposer= given, set it on that planner")
         if proposer is not None and replan_inside is not None:
             raise ValueError("replan_inside sets the default proposer's option; with proposer= given, set it on that planner")
-        super().__init__(net, m, h, limited, max_roots, gamma, seed, batched, rollout_min_scale, inference, batch_worlds=False)
+        super().__init__(net, m, h, limited, max_roots, gamma, seed, batched, inference, batch_worlds=False)
         if proposer is None:
             seconds = PROPOSER_PLAN_SECONDS if plan_seconds is None else plan_seconds
             proposer = make_proposer(seconds, seed, replan_inside=True if replan_inside is None else replan_inside)
@@ -252,7 +242,6 @@ class HybridOMPLPlanner(HybridPlanner):
         if proposer.follow_tolerance is None:
             raise ValueError("the proposer must re-plan when the world leaves its plan: give it a follow_tolerance")
         self.proposer = proposer
-        self.proposal_bonus = float(proposal_bonus)
         self.proposals: list[ProposalRecord] = []  # the last decisions' proposals (as many as ``decisions``)
         self._proposals: list[tuple[np.ndarray, str]] = []  # this forward's proposals and kinds, one per world, in order
 
@@ -287,11 +276,11 @@ class HybridOMPLPlanner(HybridPlanner):
         roots = self.roots(obs, heatmap)
         result = self.rollouts(roots, hidden)  # the paper's m x h roll-outs
         returns, paths = rollout_actions(self.stepper, [r.state for r in roots], hidden, proposal, self.gamma)
-        result = with_proposal(result, returns + self.proposal_bonus, proposal[0], paths)
+        result = with_proposal(result, returns, proposal[0], paths)
         decision = self.record(roots, result, time.perf_counter() - t0, heatmap)
         chosen = result.returns[decision.chosen_root]
         taken = bool(np.argmax(chosen) == self.m)  # the proposal's roll-out is the root's best
-        proposal_return = float(chosen[-1]) - self.proposal_bonus
+        proposal_return = float(chosen[-1])
         self.proposals.append(ProposalRecord(kind, len(proposal), taken, proposal_return, float(chosen[:-1].max())))
         if len(self.proposals) > len(self.decisions):  # kept as long as the decisions are
             del self.proposals[: len(self.proposals) - len(self.decisions)]

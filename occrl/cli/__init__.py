@@ -21,11 +21,9 @@ from occrl.cli.demo import DEMO_FIRST_SEED, DEMO_STAGE, run_demo
 from occrl.cli.export import run_export
 from occrl.cli.options import (
     COUNT,
-    FINITE,
     NOISE,
     NON_NEGATIVE,
     POSITIVE,
-    SCALE,
     SEED,
     CommandParser,
     HelpFormatter,
@@ -254,19 +252,6 @@ def add_eval(sub: argparse._SubParsersAction) -> None:
         default=None,
         help="network weights file, or a shipped network's name (occnet-warmstart, occnet-ei, ...) "
         "(default: the method's own, occnet or occnet-noheatmap)",
-    )
-    e.add_argument(
-        "--rollout-min-scale",
-        type=SCALE,
-        default=0.0,
-        help="hybrid planners: floor on the roll-out policy's standard deviation (0: the policy's own, as in the paper)",
-    )
-    e.add_argument(
-        "--proposal-bonus",
-        type=FINITE,
-        default=0.0,
-        help="hybrid-ompl-MxH: added to the OMPL plan's roll-out return before it is compared with the policy's roll-outs, "
-        "a prior for the plan in return units (0: scored as they are; a large value lets the plan decide alone)",
     )
     e.add_argument(
         "--inference",

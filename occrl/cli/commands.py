@@ -169,27 +169,6 @@ def run_eval(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return 2
-    if args.rollout_min_scale:
-        if args.sweep or not (args.method or "").startswith("hybrid"):
-            print(
-                "--rollout-min-scale applies to a single hybrid method (--method hybrid-...), not to "
-                f"{'a sweep' if args.sweep else repr(args.method)}",
-                file=sys.stderr,
-            )
-            return 2
-        if not 0.0 <= args.rollout_min_scale <= 1.0:  # also catches NaN
-            print(
-                f"--rollout-min-scale must be in [0, 1] (a standard deviation in action units), got {args.rollout_min_scale}",
-                file=sys.stderr,
-            )
-            return 2
-    if args.proposal_bonus and (args.sweep or not (args.method or "").startswith("hybrid-ompl-")):
-        print(
-            "--proposal-bonus applies to a single hybrid-ompl method (--method hybrid-ompl-MxH), not to "
-            f"{'a sweep' if args.sweep else repr(args.method)}",
-            file=sys.stderr,
-        )
-        return 2
     if args.replicate and args.sweep:
         print(
             "--replicate applies to a single method (--method M), not to a sweep (its points extend by task, not by replicate)",
@@ -276,10 +255,8 @@ def run_eval(args: argparse.Namespace) -> int:
             backend=args.backend,
             ray_address=args.ray_address,
             world=args.world,
-            rollout_min_scale=args.rollout_min_scale,
             inference=args.inference,
             replicate=args.replicate,
-            proposal_bonus=args.proposal_bonus,
             perception=args.perception,
         )
     finally:
@@ -293,9 +270,7 @@ def run_eval(args: argparse.Namespace) -> int:
         "world": args.world,
         **({"perception": args.perception} if args.perception != "geometric" else {}),
         "first_seed": args.seed,
-        **({"rollout_min_scale": args.rollout_min_scale} if args.rollout_min_scale else {}),
         **({"inference": args.inference} if args.inference != "torch" else {}),
-        **({"proposal_bonus": args.proposal_bonus} if args.proposal_bonus else {}),
         **({"replicate": args.replicate} if args.replicate else {}),
         # times per task: each task's own episode (occrl >= 0.3.0), with `batch` tasks run at a time
         "timing": EPISODE_TIMING,

@@ -51,8 +51,6 @@ NON_NEGATIVE = bounded(int, 0, what="an integer >= 0")
 SEED = bounded(int, 0, 2**63 - 1, what="an integer in [0, 2**63)")
 POSITIVE = bounded(float, 0.0, low_open=True, what="a number > 0")
 NOISE = bounded(float, 0.0, 1.0, what="a number in [0, 1] (the paper uses 0 to 0.25)")
-SCALE = bounded(float, 0.0, 1.0, what="a number in [0, 1]")
-FINITE = bounded(float, what="a finite number")
 
 
 FRACTION = bounded(float, 0.0, 1.0, what="a number in [0, 1]")

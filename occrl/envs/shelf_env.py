@@ -91,13 +91,6 @@ class ShelfEnv(EnvBase):
             its own seeded generator (so a seed fixes the episode), else from a sampled scene.
             Not with ``scenes``.
         scene_pool_share: that probability, in (0, 1].
-        task_copies: worlds that run each task (beyond the paper): consecutive groups of this
-            many worlds draw their scenes from one shared seed, so the ``n``-th episode of every
-            world of a group starts from the same scene, while each world keeps its own stream
-            for the physics noise (and the policy its own draws). 1 (the default): every world
-            its own tasks, seeded as above. ``batch_size`` must be a multiple of it; with a list
-            of seeds a group's scenes follow the seed of its first world (each world's noise then
-            comes from a stream spawned from its own seed). Not with ``scenes``.
 
     Examples:
         >>> from occrl.envs import ShelfEnv
@@ -122,7 +115,6 @@ class ShelfEnv(EnvBase):
         physics: PhysicsSettings = DEFAULT_PHYSICS,
         scene_pool: Sequence[Scene] | None = None,
         scene_pool_share: float = 1.0,
-        task_copies: int = 1,
     ) -> None:
         if isinstance(batch_size, int):
             batch_size = (batch_size,)
@@ -158,15 +150,8 @@ class ShelfEnv(EnvBase):
                 raise ValueError("give scenes (reset to each in turn) or scene_pool (drawn at random), not both")
         if isinstance(scene_pool_share, bool) or not isinstance(scene_pool_share, (int, float)) or not 0.0 < scene_pool_share <= 1.0:
             raise ValueError(f"scene_pool_share must be a probability in (0, 1], got {scene_pool_share!r}")
-        if isinstance(task_copies, bool) or not isinstance(task_copies, (int, np.integer)) or task_copies < 1:
-            raise ValueError(f"task_copies must be an int >= 1, got {task_copies!r}")
-        if batch_size[0] % task_copies:
-            raise ValueError(f"batch_size ({batch_size[0]}) must be a multiple of task_copies ({task_copies})")
-        if task_copies > 1 and scenes is not None:
-            raise ValueError("task_copies > 1 needs sampled scenes or a scene_pool, not scenes (given scenes are dealt out in turn)")
         super().__init__(device=device, batch_size=batch_size)
         self.num_worlds = int(batch_size[0])
-        self.task_copies = int(task_copies)
         self.stage = stage
         self.noise = float(noise)
         self.scenes = scenes
@@ -184,10 +169,6 @@ class ShelfEnv(EnvBase):
             if len(seed) != self.num_worlds:
                 raise ValueError(f"a list of seeds needs one per world ({self.num_worlds}), got {len(seed)}")
             self._rngs = [np.random.default_rng(int(s)) for s in seed]
-            self._scene_rngs = self._rngs
-            if self.task_copies > 1:  # a group's scenes follow its first world's seed, each world's noise a stream spawned from its own
-                self._scene_rngs = [np.random.default_rng(int(seed[i - i % self.task_copies])) for i in range(self.num_worlds)]
-                self._rngs = [np.random.default_rng(np.random.SeedSequence(int(s)).spawn(1)[0]) for s in seed]
             self._seed = list(seed)
         else:
             self._set_seed(seed)
@@ -242,11 +223,7 @@ class ShelfEnv(EnvBase):
     # ------------------------------------------------------------------ seeding
     def _set_seed(self, seed: int | None) -> None:
         ss = np.random.SeedSequence(seed)
-        self._rngs = [np.random.default_rng(s) for s in ss.spawn(self.num_worlds)]
-        self._scene_rngs = self._rngs  # one stream per world for its scenes and its noise
-        if self.task_copies > 1:  # one more stream per group, copied into each of its worlds
-            groups = ss.spawn(self.num_worlds // self.task_copies)
-            self._scene_rngs = [np.random.default_rng(groups[i // self.task_copies]) for i in range(self.num_worlds)]
+        self._rngs = [np.random.default_rng(s) for s in ss.spawn(self.num_worlds)]  # one stream per world: its scenes and its noise
         self._seed = seed
 
     def _next_scene(self, i: int) -> Scene:
@@ -254,7 +231,7 @@ class ShelfEnv(EnvBase):
             scene = self.scenes[self._scene_cursor % len(self.scenes)]
             self._scene_cursor += 1
             return scene
-        rng = self._scene_rngs[i]
+        rng = self._rngs[i]
         if self.scene_pool is not None and (self.scene_pool_share >= 1.0 or rng.random() < self.scene_pool_share):
             return self.scene_pool[int(rng.integers(len(self.scene_pool)))]
         return Scene.sample(self.stage, seed=rng, num_objects=self.num_objects)

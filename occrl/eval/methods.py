@@ -192,19 +192,14 @@ def make_method(
     name: str,
     weights: str | Path | None = None,
     seed: int = 0,
-    rollout_min_scale: float = 0.0,
     inference: str = "torch",
-    proposal_bonus: float = 0.0,
 ) -> Method:
     """``hybrid-MxH`` / ``hybrid-lim-MxH`` (planner on the full net; the papers' are 2x2, 4x4, 6x6 and lim-4x4), ``greedy`` / ``stochastic``
     (net without heat-map head: mean / sampled action), ``stochastic-gen`` (full net, sampled),
     ``hierarchical`` (Alg. 3 with OMPL; literal Search), ``hybrid-ompl-MxH`` (beyond the papers: the
     hybrid planner with the hierarchical planner's next actions as one more roll-out per root), ``scripted`` and ``clearing`` (privileged). ``weights``
-    overrides the shipped net. ``rollout_min_scale`` floors the spread of the hybrid planners'
-    roll-outs (:class:`~occrl.planners.HybridPlanner`; 0, the paper, for every other method);
-    ``inference`` is how their roll-outs call the network (``"torch"`` or ``"onnxruntime"``);
-    ``proposal_bonus`` is ``hybrid-ompl-MxH``'s prior for its OMPL plan
-    (:class:`~occrl.baselines.hybrid_ompl.HybridOMPLPlanner`; 0 for every other method).
+    overrides the shipped net. ``inference`` is how the hybrid planners' roll-outs call the
+    network (``"torch"`` or ``"onnxruntime"``; :class:`~occrl.planners.HybridPlanner`).
 
     Examples:
         >>> from occrl.eval.methods import make_method
@@ -217,12 +212,8 @@ def make_method(
         ValueError: unknown method 'random'; available: ['hybrid-2x2', ..., 'clearing'] (or any hybrid-MxH / hybrid-lim-MxH / hybrid-ompl-MxH, m and h >= 1)
     """
     hybrid, ompl_hybrid = hybrid_setting(name), ompl_hybrid_setting(name)
-    if rollout_min_scale and hybrid is None and ompl_hybrid is None:
-        raise ValueError(f"rollout_min_scale is a hybrid planner setting; {name!r} does not take it")
     if inference != "torch" and hybrid is None and ompl_hybrid is None:
         raise ValueError(f"inference is a hybrid planner setting; {name!r} does not take it")
-    if proposal_bonus and ompl_hybrid is None:
-        raise ValueError(f"proposal_bonus is a hybrid-ompl-MxH setting; {name!r} does not take it")
     if ompl_hybrid is not None:
         from occrl.baselines.hybrid_ompl import HybridOMPLPlanner
 
@@ -230,9 +221,7 @@ def make_method(
         net = _net("occnet", weights)
         return Method(
             name,
-            HybridOMPLPlanner(
-                net, m=m, h=h, seed=seed, rollout_min_scale=rollout_min_scale, inference=inference, proposal_bonus=proposal_bonus
-            ),
+            HybridOMPLPlanner(net, m=m, h=h, seed=seed, inference=inference),
             [net.make_primer()],
             network=_network_record("occnet", weights),
             image_size=net.config.image_size,
@@ -243,7 +232,7 @@ def make_method(
         net = _net("occnet", weights)
         return Method(
             name,
-            HybridPlanner(net, m=m, h=h, limited=limited, seed=seed, rollout_min_scale=rollout_min_scale, inference=inference),
+            HybridPlanner(net, m=m, h=h, limited=limited, seed=seed, inference=inference),
             [net.make_primer()],
             network=_network_record("occnet", weights),
             image_size=net.config.image_size,

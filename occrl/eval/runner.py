@@ -255,10 +255,8 @@ def run_tasks(
     backend: str = "local",
     ray_address: str | None = None,
     world: str = "pymunk",
-    rollout_min_scale: float = 0.0,
     inference: str = "torch",
     replicate: int = 0,
-    proposal_bonus: float = 0.0,
     perception: str = "geometric",
 ) -> list[EpisodeResult]:
     """Evaluate a named method on task seeds, in chunks of ``batch`` worlds spread over
@@ -266,8 +264,8 @@ def run_tasks(
     or the cluster at ``ray_address``). Results do not depend on ``workers`` or ``backend``
     (per-task wall time aside). ``world="mujoco"`` executes in the 3D MuJoCo env (the planners
     still plan in pymunk, recreated from its detections); ``num_objects=(low, high)`` draws each
-    task's object count from its seed. ``rollout_min_scale`` and ``inference`` go to the hybrid
-    planners, ``proposal_bonus`` to ``hybrid-ompl-MxH`` (:func:`~occrl.eval.methods.make_method`). ``replicate`` > 0 runs the same tasks with
+    task's object count from its seed. ``inference`` goes to the hybrid planners
+    (:func:`~occrl.eval.methods.make_method`). ``replicate`` > 0 runs the same tasks with
     the decision maker's randomness drawn anew (:func:`~occrl.envs.episodes.decision_seed`; 0 is
     what every recorded result ran). ``perception="tags"`` (with ``world="mujoco"``) plans from what
     the tag detector decodes in the wrist camera's image instead of the geometric visibility rule.
@@ -289,7 +287,7 @@ def run_tasks(
     bar = tqdm(total=len(seeds), desc=f"{method} stage {stage} noise {noise}", unit="task", disable=not progress) if own_bar else progress
     results: list[list[EpisodeResult]] = [None] * len(chunks)
     jobs = [(stage, c, num_objects, noise, world, replicate, perception) for c in chunks]
-    settings = dict(rollout_min_scale=rollout_min_scale, inference=inference, proposal_bonus=proposal_bonus)  # make_method's
+    settings = dict(inference=inference)  # make_method's
     if backend == "ray":
         results = _run_tasks_ray(method, weights, jobs, max(1, workers), ray_address, bar, settings)
     elif workers <= 1:

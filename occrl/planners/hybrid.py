@@ -86,11 +86,6 @@ class HybridPlanner(TensorDictModuleBase):
         seed: seeds the roll-outs' policy noise; a decision is a function of the observation
             history and this seed.
         batched: use the lock-step RHP (False: the sequential reference).
-        rollout_min_scale: floor on the policy's standard deviations in the roll-outs (0, the
-            paper: the policy's own). A network whose spread has shrunk, e.g. after expert
-            iteration, gives m nearly equal roll-outs and nothing to choose from; a floor keeps
-            the m candidates apart (beyond the paper; on `occnet-ei` it did not raise stage-2
-            success: docs/design/planner.md).
         inference: how the roll-outs call the network (batched RHP): ``"torch"`` (the torch
             modules, bit for bit as the TensorDict modules) or ``"onnxruntime"`` (the network
             exported once, at construction, several times faster per call, equal to float
@@ -125,7 +120,6 @@ class HybridPlanner(TensorDictModuleBase):
         gamma: float = C.GAMMA,
         seed: int = 0,
         batched: bool = True,
-        rollout_min_scale: float = 0.0,
         inference: str = "torch",
         batch_worlds: bool = False,
     ) -> None:
@@ -139,8 +133,6 @@ class HybridPlanner(TensorDictModuleBase):
                 raise ValueError(f"{name} must be an int >= 1, got {value!r}")
         if not 0.0 < gamma <= 1.0:
             raise ValueError(f"gamma must be in (0, 1], got {gamma}")
-        if not 0.0 <= rollout_min_scale <= 1.0:
-            raise ValueError(f"rollout_min_scale must be in [0, 1] (a standard deviation in action units), got {rollout_min_scale}")
         device = next(net.parameters()).device
         if device.type != "cpu":
             # roll-outs call the network on a few states at a time between pymunk steps: on an
@@ -158,21 +150,10 @@ class HybridPlanner(TensorDictModuleBase):
             raise ValueError(f"inference must be one of {INFERENCE_BACKENDS}, got {inference!r}")
         self.inference = inference
         self.batch_worlds = bool(batch_worlds)
-        self.stepper = NetworkStepper(self.net, float(rollout_min_scale), backend=inference)
+        self.stepper = NetworkStepper(self.net, backend=inference)
         self.decisions: list[Decision] = []
         self.in_keys = ["pixels", "is_init", "recurrent_state_h", "recurrent_state_c", *OBSERVATION_KEYS]
         self.out_keys = ["action", ("next", "recurrent_state_h"), ("next", "recurrent_state_c"), "heatmap"]
-
-    @property
-    def rollout_min_scale(self) -> float:
-        """The floor on the roll-outs' policy spread; its stepper applies it (one value, kept there)."""
-        return self.stepper.min_scale
-
-    @rollout_min_scale.setter
-    def rollout_min_scale(self, value: float) -> None:
-        if not 0.0 <= value <= 1.0:
-            raise ValueError(f"rollout_min_scale must be in [0, 1] (a standard deviation in action units), got {value}")
-        self.stepper.min_scale = float(value)
 
     def reseed(self, seed: int) -> None:
         self.generator.manual_seed(int(seed))
@@ -223,8 +204,8 @@ class HybridPlanner(TensorDictModuleBase):
         noise = torch.randn(len(roots), self.m, self.h, noise_dim(self.net), generator=self.generator)
         states = [r.state for r in roots]
         if self.batched:
-            return rhp_batched(self.net, states, hidden, noise, self.gamma, self.rollout_min_scale, pool=self.pool, stepper=self.stepper)
-        return rhp_sequential(self.net, states, hidden, noise, self.gamma, self.rollout_min_scale)
+            return rhp_batched(self.net, states, hidden, noise, self.gamma, pool=self.pool, stepper=self.stepper)
+        return rhp_sequential(self.net, states, hidden, noise, self.gamma)
 
     def decide_many(self, observations: list[TensorDictBase], heatmaps: np.ndarray, hidden) -> list[Decision]:
         """One planning step for each of several worlds, all their roll-outs in one batched RHP:
@@ -247,7 +228,6 @@ class HybridPlanner(TensorDictModuleBase):
             (hidden[0][owner], hidden[1][owner]),
             torch.cat(noise),
             self.gamma,
-            self.rollout_min_scale,
             pool=self.pool,
             stepper=self.stepper,
         )

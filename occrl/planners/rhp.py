@@ -111,12 +111,11 @@ class NetworkStepper:
         (torch.Size([2, 4]), torch.Size([2, 1, 128]), torch.Size([2]))
     """
 
-    def __init__(self, net: OccNet, min_scale: float = 0.0, backend: str = "torch") -> None:
+    def __init__(self, net: OccNet, backend: str = "torch") -> None:
         if backend not in INFERENCE_BACKENDS:
             raise ValueError(f"backend must be one of {INFERENCE_BACKENDS}, got {backend!r}")
         self.net = net
         self.graph = StepGraph(net)  # the net's own torch modules
-        self.min_scale = float(min_scale)  # floor on the roll-outs' policy spread (0: the policy's own)
         self.backend = backend
         self.session = _onnx_session(net) if backend == "onnxruntime" else None
 
@@ -153,10 +152,8 @@ class NetworkStepper:
     def _outputs(
         self, out: dict[str, torch.Tensor], h_next: torch.Tensor, c_next: torch.Tensor
     ) -> tuple[dict[str, torch.Tensor], torch.Tensor, torch.Tensor]:
-        """Either backend's outputs as :meth:`step` returns them: the policy's spread floored at
-        ``min_scale``, the state back in the tensordict's layout (B, layers, H)."""
-        if self.min_scale > 0:
-            out["scale"] = out["scale"].clamp(min=self.min_scale)
+        """Either backend's outputs as :meth:`step` returns them, the state back in the
+        tensordict's layout (B, layers, H)."""
         return out, h_next.transpose(0, 1), c_next.transpose(0, 1)
 
     def value(self, out: dict[str, torch.Tensor]) -> torch.Tensor:
@@ -277,17 +274,15 @@ def rhp_batched(
     hidden: tuple[torch.Tensor, torch.Tensor],
     noise: torch.Tensor,
     gamma: float = C.GAMMA,
-    min_scale: float = 0.0,
     pool: WorldPool | None = None,
     stepper: NetworkStepper | None = None,
 ) -> RHPResult:
     """All roots x m roll-outs in lock-step. ``hidden``: the LSTM state before the current
     observation, each (1, layers, H), or (R, layers, H) with one per root (roots of several
     worlds planned together). ``noise``: (R, m, h, 4) standard normal draws.
-    ``min_scale`` > 0 floors the policy's standard deviations in the roll-outs (beyond the paper).
     ``pool``: take the roll-out worlds from this :class:`~occrl.planners.WorldPool` (kept worlds
     reused, the same results) instead of building them. ``stepper``: the network calls (default
-    ``NetworkStepper(net, min_scale)``, torch; its own ``min_scale`` applies).
+    ``NetworkStepper(net)``, torch).
 
     Examples:
         >>> import numpy as np
@@ -306,7 +301,7 @@ def rhp_batched(
     R, m, depth, _ = noise.shape
     check_noise(net, noise)
     size = net.config.image_size
-    stepper = stepper if stepper is not None else NetworkStepper(net, min_scale)
+    stepper = stepper if stepper is not None else NetworkStepper(net)
     rollout_states = [root for root in roots for _ in range(m)]
     worlds = pool.take(rollout_states) if pool is not None else [make_world(state) for state in rollout_states]
     n = len(worlds)
@@ -367,7 +362,6 @@ def rhp_sequential(
     hidden: tuple[torch.Tensor, torch.Tensor],
     noise: torch.Tensor,
     gamma: float = C.GAMMA,
-    min_scale: float = 0.0,
 ) -> RHPResult:
     """Alg. 2 as printed: for each root, for each roll-out, step by step (the reference).
 
@@ -387,7 +381,7 @@ def rhp_sequential(
     R, m, depth, _ = noise.shape
     check_noise(net, noise)
     size = net.config.image_size
-    stepper = NetworkStepper(net, min_scale)
+    stepper = NetworkStepper(net)
     returns = np.zeros((R, m))
     first = np.zeros((R, m, 4))
     paths = np.full((R, m, depth + 1, 3), np.nan)

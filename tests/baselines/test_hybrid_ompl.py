@@ -100,20 +100,6 @@ def test_the_executed_action_is_the_proposal_exactly_when_its_rollout_won(net):
     assert not any(key == "privileged" or (isinstance(key, tuple) and key[0] == "privileged") for key in KeysSeen.seen)
 
 
-def test_a_large_proposal_bonus_makes_the_proposer_decide(net):
-    env = make_env(batch_size=1, stage=1, seed=3, heatmap_target=False).append_transform(net.make_primer())
-    proposer = KeysSeen(plan_seconds=0.3, sweep_from="nearest", stop_when_located=True, follow_tolerance=TOLERANCE)
-    planner = HybridOMPLPlanner(net, m=2, h=2, proposer=proposer, proposal_bonus=1e4)
-    td = env.rollout(4, planner, break_when_any_done=False)
-    assert len(planner.proposals) == len(planner.decisions) == 4
-    for k, (record, decision) in enumerate(zip(planner.proposals, planner.decisions)):
-        assert record.taken
-        assert np.allclose(td["action"][0, k].numpy(), proposer.returned[k][0], atol=1e-6)
-        chosen = decision.result.returns[decision.chosen_root]
-        assert record.proposal_return == pytest.approx(chosen[-1] - 1e4)  # recorded without the bonus
-        assert record.proposal_return < 1e3
-
-
 def test_a_call_without_the_recurrent_state_is_refused_before_the_proposer_moves_on(net):
     env = make_env(batch_size=1, stage=1, seed=3, heatmap_target=False)  # no primer
     planner = HybridOMPLPlanner(net, m=1, h=1, plan_seconds=0.2)
@@ -132,9 +118,6 @@ def test_bad_settings_are_refused(net):
     assert HybridOMPLPlanner(net).proposer.replan_inside and not HybridOMPLPlanner(net, replan_inside=False).proposer.replan_inside
     with pytest.raises(TypeError, match="HierarchicalPlanner"):
         HybridOMPLPlanner(net, proposer=object())
-    for bonus in (float("nan"), float("inf")):
-        with pytest.raises(ValueError, match="proposal_bonus must be a finite number"):
-            HybridOMPLPlanner(net, proposal_bonus=bonus)
     with pytest.raises(RuntimeError, match="inside forward"):
         HybridOMPLPlanner(net).decide(None, np.zeros((64, 64)), None)
     with pytest.raises(ValueError, match="at least one action"):

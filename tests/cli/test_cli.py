@@ -98,68 +98,6 @@ def assert_eval_refuses(bad: list[str], message: str, tmp_path, capsys) -> None:
 
 
 @pytest.mark.integration
-def test_rollout_min_scale_reaches_the_planner_and_the_json(tmp_path, capsys):
-    from occrl.eval.methods import make_method
-
-    assert make_method("hybrid-2x2", rollout_min_scale=0.3).policy.rollout_min_scale == 0.3
-    assert make_method("hybrid-2x2").policy.rollout_min_scale == 0.0
-    with pytest.raises(ValueError, match="hybrid planner setting"):
-        make_method("stochastic-gen", rollout_min_scale=0.3)
-    out = tmp_path / "r.json"
-    assert (
-        main(
-            [
-                "eval",
-                "--method",
-                "hybrid-2x2",
-                "--stage",
-                "1",
-                "--objects",
-                "1-1",
-                "--tasks",
-                "1",
-                "--rollout-min-scale",
-                "0.3",
-                "--out",
-                str(out),
-                "--no-progress",
-            ]
-        )
-        == 0
-    )
-    assert json.loads(out.read_text())["rollout_min_scale"] == 0.3
-    for bad, message in (
-        (["--method", "scripted", "--rollout-min-scale", "0.3"], "applies to a single hybrid method"),
-        (["--sweep", "--rollout-min-scale", "0.3"], "applies to a single hybrid method"),
-        (["--method", "hybrid-4x4", "--rollout-min-scale", "nan"], "is not a finite number"),
-        (["--method", "hybrid-4x4", "--rollout-min-scale", "1.5"], "allowed: a number in [0, 1]"),
-    ):
-        assert_eval_refuses(bad, message, tmp_path, capsys)
-
-
-@pytest.mark.integration
-def test_proposal_bonus_reaches_the_hybrid_ompl_planner_and_the_json(tmp_path, capsys):
-    pytest.importorskip("ompl")
-    from occrl.eval.methods import make_method
-
-    assert make_method("hybrid-ompl-2x2", proposal_bonus=7.5).policy.proposal_bonus == 7.5
-    assert make_method("hybrid-ompl-2x2").policy.proposal_bonus == 0.0
-    with pytest.raises(ValueError, match="hybrid-ompl-MxH setting"):
-        make_method("hybrid-2x2", proposal_bonus=1.0)
-    out = tmp_path / "r.json"
-    args = ["eval", "--method", "hybrid-ompl-2x2", "--stage", "1", "--objects", "1-1", "--tasks", "1", "--no-progress"]
-    assert main([*args, "--proposal-bonus", "-2.5", "--out", str(out)]) == 0
-    assert json.loads(out.read_text())["proposal_bonus"] == -2.5
-    for bad, message in (
-        (["--method", "hybrid-4x4", "--proposal-bonus", "3"], "applies to a single hybrid-ompl method"),
-        (["--sweep", "--proposal-bonus", "3"], "applies to a single hybrid-ompl method"),
-        (["--method", "hybrid-ompl-4x4", "--proposal-bonus", "inf"], "is not a finite number"),
-        (["--method", "hybrid-ompl-4x4", "--proposal-bonus", "many"], "is not a number"),
-    ):
-        assert_eval_refuses(bad, message, tmp_path, capsys)
-
-
-@pytest.mark.integration
 def test_eval_inference_backend_is_recorded_and_checked(tmp_path, capsys):
     pytest.importorskip("onnxruntime")
     out = tmp_path / "onnx.json"

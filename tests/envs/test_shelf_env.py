@@ -142,43 +142,15 @@ def test_scene_pool_draws_by_each_worlds_seed():
     assert all(env.worlds[0].scene is not p for p in pool) and 1 <= len(env.worlds[0].scene) <= 4
 
 
-def test_task_copies_run_each_task_in_a_group_of_worlds():
-    """Consecutive groups of task_copies worlds start every episode from the same scene, the groups
-    from different ones; each world keeps its own noise stream; task_copies=1 is the plain env."""
-    env = ShelfEnv(batch_size=6, stage=2, seed=4, noise=0.1, task_copies=3)
-    for _ in range(3):  # the n-th episode of every world of a group is the same task
-        env.reset()
-        scenes = [repr(w.scene) for w in env.worlds]
-        assert scenes[0] == scenes[1] == scenes[2] and scenes[3] == scenes[4] == scenes[5] and scenes[0] != scenes[3]
-    noisy = [repr(w.scene) for w in env.worlds]
-    noise_states = [str(w.rng.bit_generator.state) for w in env.worlds]
-    assert len(set(noise_states)) == 6  # each world its own noise stream
-    again = ShelfEnv(batch_size=6, stage=2, seed=4, noise=0.1, task_copies=3)
-    for _ in range(3):
-        again.reset()
-    assert [repr(w.scene) for w in again.worlds] == noisy  # a seed fixes the tasks
-    # a list of seeds: a group's scenes follow its first world's seed
-    listed = ShelfEnv(batch_size=4, stage=2, seed=[7, 8, 9, 10], task_copies=2)
-    listed.reset()
-    own = ShelfEnv(batch_size=2, stage=2, seed=[7, 9])
-    own.reset()
-    assert [repr(w.scene) for w in listed.worlds] == [repr(own.worlds[0].scene)] * 2 + [repr(own.worlds[1].scene)] * 2
-    # each world's noise stream differs from its group's scene stream
-    assert str(listed.worlds[0].rng.bit_generator.state) != str(np.random.default_rng(7).bit_generator.state)
-    # task_copies=1: world k's scenes from the k-th stream spawned from the seed, as always
-    single = ShelfEnv(batch_size=2, stage=2, seed=4, task_copies=1)
+def test_each_world_draws_its_scenes_from_its_own_stream_of_the_seed():
+    """World k's scenes come from the k-th stream spawned from the seed (or from its own seed in a list)."""
+    single = ShelfEnv(batch_size=2, stage=2, seed=4)
     single.reset()
     streams = [np.random.default_rng(s) for s in np.random.SeedSequence(4).spawn(2)]
     assert [repr(w.scene) for w in single.worlds] == [repr(Scene.sample(2, seed=rng)) for rng in streams]
-    # copies reset at different times (one's episode ends first) still meet the same next task
-    group = ShelfEnv(batch_size=2, stage=2, seed=6, task_copies=2)
-    td = group.reset()
-    first = repr(group.worlds[0].scene)
-    group.reset(td.set("_reset", torch.tensor([[True], [False]])))
-    assert repr(group.worlds[1].scene) == first and repr(group.worlds[0].scene) != first
-    second = repr(group.worlds[0].scene)
-    group.reset(td.set("_reset", torch.tensor([[False], [True]])))
-    assert repr(group.worlds[1].scene) == second
+    listed = ShelfEnv(batch_size=2, stage=2, seed=[7, 9])
+    listed.reset()
+    assert [repr(w.scene) for w in listed.worlds] == [repr(Scene.sample(2, seed=np.random.default_rng(s))) for s in (7, 9)]
 
 
 def test_undetected_slots_reveal_nothing():
@@ -202,9 +174,6 @@ def test_undetected_slots_reveal_nothing():
         (dict(scene_pool=[Scene.sample(1, seed=0)], scene_pool_share=0.0), "scene_pool_share must be a probability"),
         (dict(scene_pool=[Scene.sample(1, seed=0)], scene_pool_share=1.5), "scene_pool_share must be a probability"),
         (dict(scenes=[Scene.sample(1, seed=0)], scene_pool=[Scene.sample(1, seed=1)]), "not both"),
-        (dict(batch_size=4, task_copies=0), "task_copies must be an int >= 1"),
-        (dict(batch_size=4, task_copies=3), "must be a multiple of task_copies"),
-        (dict(batch_size=2, task_copies=2, scenes=[Scene.sample(1, seed=0)]), "not scenes"),
     ],
 )
 def test_bad_env_arguments(kwargs, message):

@@ -25,7 +25,6 @@ def test_missing_recurrent_state_names_the_primer(make):
         (dict(h=2.5), "h must be an int >= 1"),
         (dict(max_roots=0), "max_roots"),
         (dict(gamma=0.0), "gamma must be in"),
-        (dict(rollout_min_scale=-0.1), "rollout_min_scale"),
     ],
 )
 def test_planner_settings_are_range_checked(kwargs, match):
