@@ -10,6 +10,9 @@ The named presets built from it live in :mod:`occrl.training.presets`."""
 
 from __future__ import annotations
 
+import ast
+import inspect
+import textwrap
 from dataclasses import dataclass, fields
 from functools import lru_cache
 
@@ -77,10 +80,6 @@ def dataclass_field_docs(cls: type) -> dict[str, str]:
         >>> dataclass_field_docs(TrainConfig)["minibatch_envs"]
         'Sequences (each steps_per_env long) per minibatch.'
     """
-    import ast
-    import inspect
-    import textwrap
-
     body = ast.parse(textwrap.dedent(inspect.getsource(cls))).body[0].body
     docs = {}
     for node, after in zip(body, body[1:]):

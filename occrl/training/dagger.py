@@ -22,6 +22,7 @@ from tensordict.nn import TensorDictModuleBase
 
 from occrl.baselines.scripted import ScriptedRetriever
 from occrl.envs import world_constants as C
+from occrl.planners import HybridPlanner
 
 __all__ = [
     "ExpertMixPolicy",
@@ -339,8 +340,6 @@ def label_with_planner(data: TensorDictBase, net, seed: int = 0, m: int = 4, h: 
         >>> label_with_planner(data, net, m=2, h=2)["expert_action"].shape
         torch.Size([1, 2, 4])
     """
-    from occrl.planners import HybridPlanner
-
     planner = HybridPlanner(net, m=m, h=h, seed=seed, inference=inference, batch_worlds=True)
     flat = data.reshape(-1)
     labels = planner(flat.select(*planner.in_keys).copy()).get("action")

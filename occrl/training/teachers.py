@@ -30,6 +30,7 @@ from occrl.baselines.scripted import ScriptedRetriever
 from occrl.modules.occnet import OccNet
 from occrl.modules.weights import load_weights
 from occrl.planners import HybridPlanner
+from occrl.pretrained import available, weights_file
 from occrl.training.dagger import ExpertMixPolicy, OnlineTeacherPolicy, RetrievalTakeover, label_with_expert, label_with_planner
 from occrl.training.dagger import since_first_sight
 from occrl.training.run_folder import file_sha256
@@ -75,7 +76,6 @@ TEACHER_SEARCH = ("learner", "hierarchical")
 def teacher_network(value: str) -> OccNet:
     """The fixed network a "hybrid-acting" teacher plans with (its ``weights``): a weights file or a
     shipped network's name; it must have the heat-map head."""
-    from occrl.pretrained import available, weights_file
 
     path = weights_file(value)
     if not Path(path).is_file():

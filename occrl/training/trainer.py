@@ -28,12 +28,15 @@ from typing import Callable
 import numpy as np
 import torch
 from tensordict import TensorDictBase
+from torchrl.record.loggers import CSVLogger
+from tqdm import tqdm
 
+from occrl.distributed import WorkerDiedError, is_worker_death
 from occrl.envs.episodes import run_episodes, task_scenes
 from occrl.modules import make_occnet
 from occrl.objectives import compute_advantages
-from occrl.planners import HybridPlanner
 from occrl.modules.weights import load_weights, save_weights
+from occrl.planners import HybridPlanner
 from occrl.training.checkpoint import load_checkpoint, save_checkpoint
 from occrl.training.collection import TrainingCollector
 from occrl.training.config import TrainConfig, same_run_settings, training_device
@@ -41,6 +44,7 @@ from occrl.training.cpu_time import tree_cpu_seconds
 from occrl.training.curriculum import Curriculum
 from occrl.training.dagger import ExpertMixPolicy
 from occrl.training.learner import Learner
+from occrl.training.plots import plot_learning_curves
 from occrl.training.run_folder import (
     CHECKPOINT,
     DAGGER_DATA,
@@ -193,8 +197,6 @@ class Trainer:
             self.acting_net.eval()
 
     def _make_loggers(self, tensorboard: bool) -> list:
-        from torchrl.record.loggers import CSVLogger
-
         loggers = [CSVLogger(exp_name="logs", log_dir=str(self.run_dir))]
         if tensorboard:
             try:
@@ -238,8 +240,6 @@ class Trainer:
             try:
                 return self._collect_once()
             except Exception as err:
-                from occrl.distributed import WorkerDiedError, is_worker_death
-
                 if self.config.collector != "ray" or not is_worker_death(err):
                     raise
                 self.collection.discard()  # stops the surviving actors of the broken collector
@@ -301,8 +301,6 @@ class Trainer:
         last_ckpt = time.time()
         bar = None
         if self.progress:
-            from tqdm import tqdm
-
             bar = tqdm(total=None if target == math.inf else target, initial=self.iteration, unit="it", desc="training")
         summary: dict = {}
         # whether the state is that of a finished iteration; from the update to the metrics row
@@ -435,8 +433,6 @@ class Trainer:
         if not (self.run_dir / METRICS).exists():  # no iteration yet
             return
         try:
-            from occrl.training.plots import plot_learning_curves
-
             plot_learning_curves(self.run_dir / METRICS, self.run_dir / "learning_curves.png")
         except Exception as err:  # a plot must never stop training
             logger.warning("could not plot learning curves: %s", err)
