@@ -1,8 +1,9 @@
-"""Command line: ``occrl demo | train | eval | export | bench | tags``.
+"""Command line: ``occrl demo | train | eval | export | bench | tags | demos | fit | recipe``.
 
 ``occrl demo`` runs the hybrid planner with the shipped network on a few cluttered shelves whose
 target starts hidden and writes a summary and a GIF. The parser is here; what each command does is
-in :mod:`occrl.cli.commands` (``demo``: :mod:`occrl.cli.demo`, ``export``: :mod:`occrl.cli.export`), the option types and the
+in :mod:`occrl.cli.commands` (``demo``: :mod:`occrl.cli.demo`, ``export``: :mod:`occrl.cli.export`, ``demos``, ``fit``
+and ``recipe``: :mod:`occrl.cli.recipe`), the option types and the
 training options in :mod:`occrl.cli.options`. Nothing heavy is imported to build the parser: the
 training options (which import torch) are added only when ``occrl train`` is parsed or its help
 is printed.
@@ -19,6 +20,7 @@ from occrl import __version__
 from occrl.cli.commands import run_bench, run_eval, run_train
 from occrl.cli.demo import DEMO_FIRST_SEED, DEMO_STAGE, run_demo
 from occrl.cli.export import run_export
+from occrl.cli.recipe import add_recipe_parsers
 from occrl.cli.options import (
     COUNT,
     NOISE,
@@ -44,6 +46,8 @@ examples:
                                                success rate, actions and time of a method
   occrl train --preset tiny --run-dir /tmp/tiny --iterations 2
                                                a seconds-long training run
+  occrl recipe occnet --size smoke --run-dir /tmp/recipe
+                                               the shipped network's recipe at a tiny size (minutes)
   occrl COMMAND --help                         a command's options and examples"""
 
 DEMO_EPILOG = f"""\
@@ -102,7 +106,7 @@ The benchmarks are the scripts in benchmarks/ of a source checkout."""
 
 
 def make_parser() -> argparse.ArgumentParser:
-    """The ``occrl`` command line: demo, train, eval, export, bench, tags.
+    """The ``occrl`` command line: demo, train, eval, export, bench, tags, demos, fit, recipe.
 
     The ``train`` parser gets its training options (one per :class:`~occrl.training.TrainConfig`
     setting) when it parses or prints its help, so that building this parser imports no torch.
@@ -136,6 +140,7 @@ def make_parser() -> argparse.ArgumentParser:
     b.add_argument("rest", metavar="OPTION", nargs=argparse.REMAINDER, help="the benchmark's own options")
     b.set_defaults(func=run_bench)
     add_tags_parser(sub)
+    add_recipe_parsers(sub)
     return parser
 
 

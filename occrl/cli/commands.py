@@ -38,15 +38,22 @@ def _stop_on_signals() -> list[str]:
     return received
 
 
+def train_overrides(args: argparse.Namespace) -> dict:
+    """The training settings an ``occrl train`` command sets by its options (by their flat names;
+    ``--preset`` picks the preset they override)."""
+    from occrl.training import TrainConfig
+
+    settable = [name for name in TrainConfig.field_docs() if name != "preset"]  # the options made by add_train_settings
+    return {name: getattr(args, name) for name in settable if getattr(args, name, None) is not None}
+
+
 def run_train(args: argparse.Namespace) -> int:
     if args.run_dir is None and not args.show_config:
         print("occrl train: error: give --run-dir (the run's folder: checkpoint, logs, curves), or --show-config", file=sys.stderr)
         return 2
-    from occrl.training import TrainConfig, Trainer, get_train_config
+    from occrl.training import Trainer, get_train_config
 
-    # the options generated from TrainConfig (add_train_settings); --preset picks the preset itself
-    settable = [name for name in TrainConfig.field_docs() if name != "preset"]
-    overrides = {name: getattr(args, name) for name in settable if getattr(args, name, None) is not None}
+    overrides = train_overrides(args)
     if "device" in overrides:
         from occrl.training.config import training_device
 
