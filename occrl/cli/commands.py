@@ -14,7 +14,7 @@ from occrl.atomic_files import write_text_atomic
 
 from occrl.cli.options import checked_weights_file, parse_objects
 
-__all__ = ["run_train", "config_listing", "run_eval", "run_bench", "network_of"]
+__all__ = ["run_train", "train_overrides", "config_listing", "run_eval", "run_bench", "network_of"]
 
 if TYPE_CHECKING:
     from occrl.training import TrainConfig, Trainer

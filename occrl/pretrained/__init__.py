@@ -86,7 +86,9 @@ def available() -> list[str]:
 
 
 def model_card(name: str) -> dict:
-    """Training facts of a shipped network (preset, stage reached, frames, CPU-hours, ...).
+    """Training facts of a shipped network (preset, stage reached, frames, CPU-hours, ...). The
+    default networks' cards add ``recipe_from_scratch``: the ``occrl recipe`` command that makes
+    them, each of its steps' CPU-hours (None where never logged) and their total.
 
     Examples:
         >>> from occrl.pretrained import model_card
