@@ -278,7 +278,7 @@ class TrainConfig:
         Examples:
             >>> from occrl.training import get_train_config
             >>> get_train_config("tiny").validate()
-            >>> get_train_config("tiny", imitation_teacher="self").validate()
+            >>> get_train_config("tiny", imitation_teacher="self", label_episodes="all").validate()
             Traceback (most recent call last):
                 ...
             ValueError: imitation_teacher='self' needs label_episodes='success': the learner's own actions of every episode as labels teach nothing (their expected gradient is zero)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from occrl.training.config import ImitationConfig, PromotionConfig, TrainConfig
+from occrl.training.config import TEACHER_SETTINGS, ImitationConfig, PromotionConfig, TrainConfig
 
 __all__ = ["TRAIN_PRESETS", "get_train_config"]
 
@@ -83,10 +83,16 @@ def get_train_config(preset: str = "paper", **overrides) -> TrainConfig:
         ('tiny', 0.001, 32)
         >>> cfg.imitation.iterations, cfg.imitation.updates, cfg.imitation.teacher
         (5, 3, HierarchicalTeacher(action_noise=0.05, label_episodes='all'))
+        >>> get_train_config("tiny", imitation_iters=5, imitation_teacher="self").imitation.teacher  # its own defaults
+        SelfTeacher(label_episodes='success')
     """
     if preset not in TRAIN_PRESETS:
         raise ValueError(f"unknown training preset {preset!r}; available: {sorted(TRAIN_PRESETS)}")
     if "imitation" in overrides:
         imitation = overrides.pop("imitation")
         return replace(get_train_config(preset, **overrides), imitation=imitation)
-    return TrainConfig.from_flat({**TRAIN_PRESETS[preset].flat_settings(), **overrides})
+    settings = TRAIN_PRESETS[preset].flat_settings()
+    if overrides.get("imitation_teacher", settings["imitation_teacher"]) != settings["imitation_teacher"]:
+        # another teacher: the preset's teacher settings were its own teacher's; the new one starts from its defaults
+        settings = {name: value for name, value in settings.items() if name not in TEACHER_SETTINGS}
+    return TrainConfig.from_flat({**settings, **overrides})

@@ -51,8 +51,9 @@ def test_self_imitation_clones_the_learners_own_successful_episodes(tmp_path):
 
 
 def test_label_episodes_is_checked_against_the_teacher(tmp_path):
+    assert get_train_config("tiny", imitation_iters=2, imitation_teacher="self").imitation.teacher.label_episodes == "success"
     with pytest.raises(ValueError, match="label_episodes='success'"):
-        Trainer(get_train_config("tiny", imitation_iters=2, imitation_teacher="self"), tmp_path / "a", progress=False)
+        Trainer(get_train_config("tiny", imitation_iters=2, imitation_teacher="self", label_episodes="all"), tmp_path / "a", progress=False)
     with pytest.raises(ValueError, match="not 'scripted'"):
         Trainer(get_train_config("tiny", imitation_iters=2, label_episodes="success"), tmp_path / "b", progress=False)
 
