@@ -15,6 +15,7 @@ from tensordict import TensorDict, TensorDictBase
 from occrl.envs import world_constants as C
 from occrl.envs.observation import MAX_POLY_VERTICES, MAX_SLOTS, MAX_TYPE_ID, detected_world_polygons, pad_polygon
 from occrl.envs.scene import canonical_polygon, validate_vertices
+from occrl.perception.checks import finite_array, strict_int
 
 
 __all__ = ["detected_polygons", "observation_from_detections", "DETECTION_KEYS", "OBSERVATION_KEYS"]
@@ -32,26 +33,6 @@ OBSERVATION_KEYS = (
     "target_vertices",
     "target_num_vertices",
 )
-
-
-def _finite_vector(name: str, value, size: int, allowed: str) -> np.ndarray:
-    try:
-        v = np.asarray(value, dtype=float).reshape(-1)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be {allowed}, got {value!r}") from None
-    if v.shape != (size,):
-        raise ValueError(f"{name} must be {allowed}, got {value!r}")
-    if not np.all(np.isfinite(v)):
-        raise ValueError(f"{name} must be finite, got {value!r}")
-    return v
-
-
-def _type_id(name: str, value, high: int) -> int:
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
-        raise TypeError(f"{name} must be an int, got {value!r}")
-    if not 1 <= int(value) < high:
-        raise ValueError(f"{name} must be in [1, {high}) (0 means 'no object'), got {value}")
-    return int(value)
 
 
 def detected_polygons(obs: TensorDictBase) -> list[tuple[list[np.ndarray], list[bool]]]:
@@ -116,15 +97,15 @@ def observation_from_detections(
         >>> td["objects", "detected"].sum().item()
         1
     """
-    gp = _finite_vector("gripper_pose", gripper_pose, 3, "(x, y, theta)")
+    gp = finite_array("gripper_pose", gripper_pose, (3,), "(x, y, theta)")
     if np.ndim(gripper_opening) != 0:
         raise ValueError(f"gripper_opening must be one number (m), got {gripper_opening!r}")
-    opening = float(_finite_vector("gripper_opening", [gripper_opening], 1, "one number (m)")[0])
+    opening = float(finite_array("gripper_opening", [gripper_opening], (1,), "one number (m)")[0])
     if not 0.0 <= opening <= C.GRIPPER_STROKE:
         raise ValueError(f"gripper_opening must be in [0, {C.GRIPPER_STROKE}] m (the stroke), got {opening}")
     if not isinstance(gripper_closed, (bool, np.bool_)):
         raise TypeError(f"gripper_closed must be a bool (the last gripper command), got {gripper_closed!r}")
-    target = _type_id("target_type", target_type, MAX_TYPE_ID)
+    target = strict_int("target_type", target_type, 1, MAX_TYPE_ID)
     tv = canonical_polygon(validate_vertices("target_vertices", target_vertices), "target_vertices")
     if isinstance(detections, (str, bytes, dict)) or not isinstance(detections, Sequence):
         raise TypeError(f"detections must be a list of dicts, got {type(detections).__name__}")
@@ -143,11 +124,11 @@ def observation_from_detections(
         missing = [key for key in DETECTION_KEYS if key not in d]
         if missing:
             raise ValueError(f"detections[{k}] is missing {missing}; required: {list(DETECTION_KEYS)}")
-        tid = _type_id(f"detections[{k}]['type_id']", d["type_id"], MAX_TYPE_ID)
+        tid = strict_int(f"detections[{k}]['type_id']", d["type_id"], 1, MAX_TYPE_ID)
         if tid in seen:
             raise ValueError(f"detections[{k}] and detections[{seen[tid]}] have the same type_id {tid}; a detection names one object")
         seen[tid] = k
-        p = _finite_vector(f"detections[{k}]['pose']", d["pose"], 3, "(x, y, theta)")
+        p = finite_array(f"detections[{k}]['pose']", d["pose"], (3,), "(x, y, theta)")
         v = canonical_polygon(validate_vertices(f"detections[{k}]['vertices']", d["vertices"]), f"detections[{k}]['vertices']")
         det[0, k] = True
         type_id[0, k] = tid
