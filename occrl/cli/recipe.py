@@ -15,6 +15,7 @@ import shlex
 import sys
 from pathlib import Path
 
+from occrl.atomic_files import write_text_atomic
 from occrl.cli.options import COUNT, NON_NEGATIVE_NUMBER, SEED, HelpFormatter, bounded
 from occrl.cli.recipe_steps import RECIPE_SIZES, RecipeStep, recipe_steps
 
@@ -238,11 +239,11 @@ def run_recipe(args: argparse.Namespace) -> int:
             return code
         frames, cpu_hours = step_cost(s, run_dir / s.name)
         entry = {"what": s.what, "command": command, "frames": frames, "cpu_hours": cpu_hours}
-        record.write_text(json.dumps(entry, indent=1))
+        write_text_atomic(record, json.dumps(entry, indent=1))  # a step is finished once its record is whole
         done.append(entry)
         print(f"[{i}/{len(steps)}] {s.name}: done ({cpu_hours} CPU hours)", flush=True)
     before = run_dir / "recipe_before.json"
-    before.write_text(json.dumps(done[:-1], indent=1))
+    write_text_atomic(before, json.dumps(done[:-1], indent=1))
     export = ["export", "--run-dir", str(run_dir / steps[-1].name), "--name", network, "--preset", "cpu-curriculum"]
     export += ["--dest", str(run_dir / "export"), "--recipe-before", str(before)]
     print(f"[export] occrl {shlex.join(export)}", flush=True)
