@@ -1,4 +1,4 @@
-"""Command line: ``occrl demo | train | eval | export | bench | tags | demos | fit | recipe``.
+"""Command line: ``occrl demo | train | eval | export | bench | tags | calibrate | demos | fit | recipe``.
 
 ``occrl demo`` runs the hybrid planner with the shipped network on a few cluttered shelves whose
 target starts hidden and writes a summary and a GIF. The parser is here; what each command does is
@@ -31,6 +31,7 @@ from occrl.cli.options import (
     HelpFormatter,
     add_train_options,
 )
+from occrl.cli.calibrate import add_calibrate_parser
 from occrl.cli.tags import add_tags_parser
 
 __all__ = ["main", "make_parser"]
@@ -106,7 +107,8 @@ The benchmarks are the scripts in benchmarks/ of a source checkout."""
 
 
 def make_parser() -> argparse.ArgumentParser:
-    """The ``occrl`` command line: demo, train, eval, export, bench, tags, demos, fit, recipe.
+    """The ``occrl`` command line: demo, train, eval, export, bench, tags, calibrate, demos, fit,
+    recipe.
 
     The ``train`` parser gets its training options (one per :class:`~occrl.training.TrainConfig`
     setting) when it parses or prints its help, so that building this parser imports no torch.
@@ -140,6 +142,7 @@ def make_parser() -> argparse.ArgumentParser:
     b.add_argument("rest", metavar="OPTION", nargs=argparse.REMAINDER, help="the benchmark's own options")
     b.set_defaults(func=run_bench)
     add_tags_parser(sub)
+    add_calibrate_parser(sub)
     add_recipe_parsers(sub)
     return parser
 

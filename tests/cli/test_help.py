@@ -12,7 +12,7 @@ from occrl.cli import main, make_parser
 from occrl.training import TrainConfig
 
 ROOT = Path(__file__).resolve().parents[2]
-COMMANDS = ["demo", "train", "eval", "export", "bench", "tags", "demos", "fit", "recipe"]
+COMMANDS = ["demo", "train", "eval", "export", "bench", "tags", "calibrate", "demos", "fit", "recipe"]
 
 
 def command_parsers() -> dict[str, argparse.ArgumentParser]:

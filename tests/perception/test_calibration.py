@@ -1,0 +1,255 @@
+"""Camera calibration from a ChArUco board: the intrinsics and the hand-camera transform recovered
+from images that real MuJoCo renders of the printed board, seen by a camera fixed to a moving
+gripper at a known pose and field of view; the board page at true size; bad input named."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+from PIL import Image
+
+pytest.importorskip("cv2")
+pytest.importorskip("mujoco")
+
+import cv2  # noqa: E402
+
+from occrl.cli import main  # noqa: E402
+from occrl.envs.mujoco3d.camera import close_renderer, gl_available, new_renderer, require_mujoco  # noqa: E402
+from occrl.perception import load_camera  # noqa: E402
+from occrl.perception.board import CalibrationBoard, board_image, board_page, find_board  # noqa: E402
+from occrl.perception.calibration import (  # noqa: E402
+    board_pose,
+    calibrate_hand_camera,
+    calibrate_intrinsics,
+    read_gripper_poses,
+)
+from occrl.perception.camera import CameraModel, forward_looking_hand_camera  # noqa: E402
+from occrl.perception.frames import invert_transform  # noqa: E402
+
+needs_gl = pytest.mark.skipif(not gl_available()[0], reason=f"no OpenGL backend for MuJoCo: {gl_available()[1]}")
+
+BOARD = CalibrationBoard()
+WIDTH, HEIGHT, FOVY_DEG = 640, 480, 55.0
+F_TRUE = HEIGHT / 2 / math.tan(math.radians(FOVY_DEG) / 2)  # MuJoCo's pinhole: 461.0 px, square pixels
+BOARD_CENTRE = np.array([0.0, 0.5, 0.3])  # the board stands upright, its printed face towards -y
+FLIP = np.diag([1.0, -1.0, -1.0, 1.0])  # OpenCV's camera frame <-> MuJoCo's (y up, looking along -z)
+
+
+def rotation(axis: str, deg: float) -> np.ndarray:
+    t = np.eye(4)
+    t[:3, :3] = cv2.Rodrigues(np.radians(deg) * np.eye(3)["xyz".index(axis)])[0]
+    return t
+
+
+# the camera 3.5 cm ahead of and 2.8 cm above the palm, 1.2 cm to the right, tilted 8 degrees down and turned 3 degrees
+HAND_CAMERA = forward_looking_hand_camera((0.012, 0.035, 0.028)) @ rotation("x", -8.0) @ rotation("y", 3.0)
+
+
+def world_board() -> np.ndarray:
+    """The board frame (OpenCV's: top-left outer corner, x right, y down, z into the board) in the world."""
+    t = np.eye(4)
+    t[:3, :3] = [[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]]
+    width, height = BOARD.size
+    t[:3, 3] = BOARD_CENTRE + [-width / 2, -0.001, height / 2]
+    return t
+
+
+def board_model():
+    """A MuJoCo model of the printed board (a textured card) and a camera on a mocap gripper."""
+    mujoco, _ = require_mujoco()
+    ok, png = cv2.imencode(".png", np.repeat(board_image(BOARD, 80)[..., None], 3, axis=-1))
+    assert ok
+    mount = HAND_CAMERA @ FLIP
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, mount[:3, :3].ravel())
+    width, height = BOARD.size
+    xml = f"""
+    <mujoco>
+      <visual><headlight ambient="0.5 0.5 0.5" diffuse="0.5 0.5 0.5" specular="0 0 0"/><quality offsamples="8"/></visual>
+      <asset>
+        <texture name="board" type="2d" file="board.png"/>
+        <material name="board" texture="board" specular="0" shininess="0" reflectance="0"/>
+      </asset>
+      <worldbody>
+        <geom type="box" pos="{" ".join(map(str, BOARD_CENTRE))}" size="{width / 2} 0.001 {height / 2}" material="board"/>
+        <body name="gripper" mocap="true">
+          <camera name="wrist" fovy="{FOVY_DEG}" pos="{" ".join(map(str, mount[:3, 3]))}" quat="{" ".join(map(str, quat))}"/>
+        </body>
+      </worldbody>
+    </mujoco>"""
+    return mujoco.MjModel.from_xml_string(xml, {"board.png": png.tobytes()})
+
+
+def gripper_poses(count: int, seed: int, spread: float) -> list[np.ndarray]:
+    """Gripper poses whose camera looks at the board from 0.3-0.55 m, up to 35 degrees off its
+    normal, at a point up to ``spread`` metres from its centre, rolled up to 20 degrees."""
+    rng = np.random.default_rng(seed)
+    poses = []
+    for _ in range(count):
+        yaw, pitch = np.radians(rng.uniform(-35, 35)), np.radians(rng.uniform(-30, 30))
+        eye = BOARD_CENTRE + rng.uniform(0.3, 0.55) * np.array([np.sin(yaw) * np.cos(pitch), -np.cos(yaw) * np.cos(pitch), np.sin(pitch)])
+        target = BOARD_CENTRE + [rng.uniform(-spread, spread), 0.0, rng.uniform(-spread, spread)]
+        z = (target - eye) / np.linalg.norm(target - eye)
+        x = np.cross(z, [0.0, 0.0, -1.0])
+        x /= np.linalg.norm(x)
+        world_camera = np.eye(4)
+        world_camera[:3, :3] = np.stack([x, np.cross(z, x), z], axis=1)
+        world_camera[:3, 3] = eye
+        world_camera = world_camera @ rotation("z", rng.uniform(-20, 20))
+        poses.append(world_camera @ invert_transform(HAND_CAMERA))
+    return poses
+
+
+def render(poses: list[np.ndarray]) -> list[np.ndarray]:
+    """The wrist camera's RGB image at each gripper pose."""
+    mujoco, _ = require_mujoco()
+    model = board_model()
+    data = mujoco.MjData(model)
+    renderer = new_renderer(model, HEIGHT, WIDTH)
+    images = []
+    try:
+        for pose in poses:
+            quat = np.zeros(4)
+            mujoco.mju_mat2Quat(quat, pose[:3, :3].ravel())
+            data.mocap_pos[0], data.mocap_quat[0] = pose[:3, 3], quat
+            mujoco.mj_forward(model, data)
+            renderer.update_scene(data, camera="wrist")
+            images.append(renderer.render().copy())
+    finally:
+        close_renderer(renderer)
+    return images
+
+
+@pytest.fixture(scope="module")
+def views() -> dict[str, tuple[list[np.ndarray], list[np.ndarray]]]:
+    """16 images of the board across the image for the intrinsics, 12 for the hand-camera transform."""
+    out = {}
+    for name, count, seed, spread in (("intrinsics", 16, 1, 0.12), ("hand", 12, 2, 0.03)):
+        poses = gripper_poses(count, seed, spread)
+        out[name] = (poses, render(poses))
+    return out
+
+
+def true_camera() -> CameraModel:
+    return CameraModel(WIDTH, HEIGHT, F_TRUE, F_TRUE, (WIDTH - 1) / 2, (HEIGHT - 1) / 2, hand_camera=HAND_CAMERA)
+
+
+@needs_gl
+def test_rendered_board_is_where_mujoco_put_it(views):
+    # the scene's own check: solvePnP with the true camera finds the board where the model has it
+    poses, images = views["hand"]
+    for pose, image in zip(poses, images):
+        view = find_board(image, BOARD)
+        assert view is not None and len(view.ids) >= 20
+        truth = invert_transform(pose @ HAND_CAMERA) @ world_board()
+        found = board_pose(view, true_camera())
+        assert np.abs(found[:3, 3] - truth[:3, 3]).max() < 1.5e-3
+        assert np.degrees(np.arccos(np.clip((np.trace(found[:3, :3].T @ truth[:3, :3]) - 1) / 2, -1, 1))) < 0.3
+
+
+@needs_gl
+def test_intrinsics_are_recovered_from_rendered_views(views):
+    _, images = views["intrinsics"]
+    result = calibrate_intrinsics(images, BOARD)
+    assert result.used == tuple(range(16)) and (result.width, result.height) == (WIDTH, HEIGHT)
+    assert result.rms_px < 0.3
+    # measured: fx, fy within 0.5 px of 461.0, cx, cy within 1 px of (319.5, 239.5), |k1| < 0.01
+    assert abs(result.fx - F_TRUE) < 2.0 and abs(result.fy - F_TRUE) < 2.0, (result.fx, result.fy, F_TRUE)
+    assert abs(result.cx - (WIDTH - 1) / 2) < 2.0 and abs(result.cy - (HEIGHT - 1) / 2) < 2.0, (result.cx, result.cy)
+    assert np.abs(result.distortion[:2]).max() < 0.05
+
+
+@needs_gl
+def test_hand_camera_is_recovered_from_rendered_views(views, tmp_path):
+    poses, images = views["hand"]
+    intrinsics = calibrate_intrinsics(views["intrinsics"][1], BOARD)
+    result = calibrate_hand_camera(images, poses, intrinsics.camera(), BOARD)
+    error_m = np.linalg.norm(result.hand_camera[:3, 3] - HAND_CAMERA[:3, 3])
+    error_deg = np.degrees(np.arccos(np.clip((np.trace(result.hand_camera[:3, :3].T @ HAND_CAMERA[:3, :3]) - 1) / 2, -1, 1)))
+    assert error_m < 2e-3 and error_deg < 0.5, (error_m, error_deg, result.method)
+    assert result.reprojection_rms_px < 1.0 and result.board_spread_m < 2e-3 and result.board_spread_deg < 0.5
+    assert np.abs(result.base_board[:3, 3] - world_board()[:3, 3]).max() < 3e-3
+
+
+@needs_gl
+def test_cli_calibrates_from_image_folders(views, tmp_path, capsys):
+    for name, (poses, images) in views.items():
+        (tmp_path / name).mkdir()
+        for k, image in enumerate(images):
+            Image.fromarray(image).save(tmp_path / name / f"{k:03d}.png")
+    poses = [{"image": f"{k:03d}.png", "gripper_pose": p.tolist()} for k, p in enumerate(views["hand"][0])]
+    (tmp_path / "poses.json").write_text(json.dumps({"poses": poses}))
+    camera_file = str(tmp_path / "camera.json")
+    assert main(["calibrate", "intrinsics", "--images", str(tmp_path / "intrinsics"), "--out", camera_file]) == 0
+    out = capsys.readouterr().out
+    assert "16 of 16 images" in out and "RMS" in out
+    args = ["--images", str(tmp_path / "hand"), "--poses", str(tmp_path / "poses.json"), "--camera", camera_file, "--out", camera_file]
+    assert main(["calibrate", "hand-camera", *args]) == 0
+    assert "board spread" in capsys.readouterr().out
+    camera = load_camera(camera_file)
+    assert abs(camera.fx - F_TRUE) < 2.0 and np.abs(camera.hand_camera[:3, 3] - HAND_CAMERA[:3, 3]).max() < 2e-3
+
+
+def test_board_page_prints_squares_at_true_size(tmp_path):
+    assert main(["calibrate", "board", "--out", str(tmp_path / "board.png"), "--dpi", "200"]) == 0
+    page = Image.open(tmp_path / "board.png")
+    assert page.size == (1654, 2339) and page.info["dpi"] == pytest.approx((200, 200), abs=0.01)  # A4 at 200 dpi
+    view = find_board(np.asarray(page), BOARD)
+    assert view is not None and len(view.ids) == BOARD.corner_count
+    square_px = BOARD.square_length * 1000 / 25.4 * 200  # 35 mm: 275.6 pixels
+    steps = np.diff(view.image_points.reshape(BOARD.squares_y - 1, BOARD.squares_x - 1, 2), axis=1)[..., 0]
+    assert np.abs(steps - square_px).max() <= 1.0
+    assert np.asarray(board_page(BOARD, 100)).shape == (1169, 827)
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"squares_x": 2}, r"squares_x must be in \[3, 51\), got 2"),
+        ({"square_length": 35.0}, "must be in metres"),
+        ({"marker_length": 0.035}, "must be shorter than square_length"),
+        ({"dictionary": "aruco_4x4_50", "squares_x": 11, "squares_y": 11}, "needs 60 markers; aruco_4x4_50 has 50"),
+        ({"dictionary": "dict_5x5"}, "unknown board dictionary 'dict_5x5'; allowed"),
+    ],
+)
+def test_bad_boards_are_named(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        CalibrationBoard(**kwargs)
+
+
+def test_bad_images_and_poses_are_named(tmp_path):
+    blank = np.full((48, 64), 255, np.uint8)
+    with pytest.raises(ValueError, match="image 1 must be uint8"):
+        calibrate_intrinsics([blank, blank.astype(float)], BOARD)
+    with pytest.raises(ValueError, match=r"image 0 must be a grey \(H, W\) or RGB \(H, W, 3\) image .* got shape \(48, 64, 2\)"):
+        calibrate_intrinsics([np.zeros((48, 64, 2), np.uint8)], BOARD)
+    with pytest.raises(ValueError, match="must all have one size"):
+        calibrate_intrinsics([blank, blank[:40]], BOARD)
+    with pytest.raises(ValueError, match="the board .* was found in 0 of 6 images; calibrating the intrinsics needs at least 5"):
+        calibrate_intrinsics([blank] * 6, BOARD)
+    camera = CameraModel.from_fov(64, 48, 60.0)
+    turn = [rotation("x", 10.0), rotation("y", 10.0), np.eye(4)]
+    with pytest.raises(ValueError, match="at least 3 gripper poses"):
+        calibrate_hand_camera([blank] * 2, turn[:2], camera, BOARD)
+    with pytest.raises(ValueError, match="gripper pose 1 must be a rigid transform"):
+        calibrate_hand_camera([blank] * 3, [np.eye(4), np.diag([2.0, 1.0, 1.0, 1.0]), np.eye(4)], camera, BOARD)
+    millimetres = [p.copy() for p in turn]
+    millimetres[0][:3, 3] = [400.0, 100.0, 300.0]
+    with pytest.raises(ValueError, match="translations must be in metres"):
+        calibrate_hand_camera([blank] * 3, millimetres, camera, BOARD)
+    with pytest.raises(ValueError, match="one image per gripper pose is needed: 3 poses, 2 images"):
+        calibrate_hand_camera([blank] * 2, turn, camera, BOARD)
+    with pytest.raises(ValueError, match="was found in 0 of 3 images; hand-camera calibration needs it in at least 3"):
+        calibrate_hand_camera([blank] * 3, turn, camera, BOARD)
+    (tmp_path / "poses.json").write_text(json.dumps({"poses": [{"image": "a.png", "gripper_pose": np.eye(4).tolist()}]}))
+    with pytest.raises(ValueError, match=r"one pose per image: no pose for \['b.png'\], no image for \[\]"):
+        read_gripper_poses(tmp_path / "poses.json", ["a.png", "b.png"])
+
+
+@needs_gl
+def test_poses_turning_about_one_axis_are_refused(views):
+    poses, images = views["hand"]
+    flat = [gripper_poses(1, 3, 0.0)[0] @ rotation("y", a) for a in (-10.0, 0.0, 10.0)]
+    with pytest.raises(ValueError, match="about at least two different axes"):
+        calibrate_hand_camera(images[:3], flat, true_camera(), BOARD)
