@@ -1,6 +1,8 @@
 import runpy
 from pathlib import Path
 
+import pytest
+
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
 
@@ -29,3 +31,18 @@ def test_robot_loop_runs(capsys, monkeypatch):
     runpy.run_path(str(EXAMPLES / "robot_loop.py"), run_name="__main__")
     out = capsys.readouterr().out
     assert "step 3: sees" in out and "status after 3 actions: running" in out
+
+
+@pytest.mark.integration
+def test_calibrate_simulated_camera_recovers_the_camera(capsys, monkeypatch, tmp_path):
+    pytest.importorskip("mujoco")
+    pytest.importorskip("cv2")
+    from occrl.envs.mujoco3d.camera import gl_available
+
+    if not gl_available()[0]:
+        pytest.skip(f"no OpenGL backend for MuJoCo: {gl_available()[1]}")
+    monkeypatch.setattr("sys.argv", ["calibrate_simulated_camera.py", "--out", str(tmp_path)])
+    runpy.run_path(str(EXAMPLES / "calibrate_simulated_camera.py"), run_name="__main__")
+    out = capsys.readouterr().out
+    assert "the board in 16 of 16 images" in out and "the board in 12 of 12 images" in out
+    assert (tmp_path / "camera.json").is_file() and (tmp_path / "hand" / "poses.json").is_file()
