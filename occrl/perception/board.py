@@ -232,7 +232,7 @@ def board_page(board: CalibrationBoard, dpi: int = 300, page: str = "a4") -> Ima
     header = 2.5 * LABEL_MM
     if board_w > page_w - 2 * MARGIN_MM or board_h > page_h - 2 * MARGIN_MM - header:
         raise ValueError(
-            f"the board ({board_w:g} x {board_h:g} mm) does not fit a {page} page ({page_w:g} x {page_h:g} mm with "
+            f"the board ({board_w:g} x {board_h:g} mm) does not fit the {page} page ({page_w:g} x {page_h:g} mm with "
             f"{MARGIN_MM:g} mm margins and the scale bar): use fewer or smaller squares"
         )
     image = Image.new("L", (mm_to_px(page_w, dpi), mm_to_px(page_h, dpi)), 255)

@@ -185,3 +185,20 @@ def test_every_calibrate_step_has_examples_and_shows_its_defaults():
                 continue
             shown = formatter._expand_help(action)
             assert len(shown) > 10 and ("(default" in shown or action.required), (name, action.option_strings, shown)
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["board", "--out", "{tmp}/board.jpg"], "the board's file must end in .pdf or .png, got 'board.jpg'"),
+        (["board", "--out", "{tmp}/board.png", "--square", "35"], "argument --square: 35 is out of range; allowed: metres in (0, 1]"),
+        (["board", "--out", "{tmp}/board.png", "--squares-x", "9"], "does not fit the a4 page"),
+        (["intrinsics", "--images", "{tmp}/none", "--out", "{tmp}/camera.json"], "the image folder"),
+        (["intrinsics", "--images", "{tmp}", "--out", "{tmp}/camera.json"], "holds no images"),
+        (["board", "--out", "{tmp}/board.png", "--dictionary", "dict_5x5"], "unknown board dictionary 'dict_5x5'"),
+    ],
+)
+def test_cli_bad_input_is_named_and_writes_nothing(tmp_path, capsys, argv, message):
+    assert main(["calibrate"] + [a.format(tmp=tmp_path) for a in argv]) == 2
+    assert message in capsys.readouterr().err
+    assert not list(tmp_path.iterdir())
