@@ -297,13 +297,17 @@ def calibrate_hand_camera(
     best = None
     for method in HAND_EYE_METHODS:
         flag = getattr(cv2, f"CALIB_HAND_EYE_{method.upper()}")
-        r, t = cv2.calibrateHandEye(
-            [p[:3, :3] for p in poses],
-            [p[:3, 3] for p in poses],
-            [c[:3, :3] for c in camera_boards],
-            [c[:3, 3] for c in camera_boards],
-            method=flag,
-        )
+        try:
+            r, t = cv2.calibrateHandEye(
+                [p[:3, :3] for p in poses],
+                [p[:3, 3] for p in poses],
+                [c[:3, :3] for c in camera_boards],
+                [c[:3, 3] for c in camera_boards],
+                method=flag,
+            )
+        except cv2.error as err:  # e.g. Andreff's least squares on inconsistent motions
+            log.info("calibrateHandEye %s failed: %s", method, str(err).strip().splitlines()[-1])
+            continue
         hand = np.eye(4)
         hand[:3, :3], hand[:3, 3] = r, t.ravel()
         if not np.all(np.isfinite(hand)) or abs(np.linalg.det(r) - 1) > 1e-3:
@@ -314,8 +318,11 @@ def calibrate_hand_camera(
         log.info("calibrateHandEye %s: board spread %.2f mm %.2f deg, reprojection %.2f px", method, spread_m * 1e3, spread_deg, rms)
         if best is None or rms < best.reprojection_rms_px:
             best = HandCameraCalibration(hand, base_board, spread_m, spread_deg, rms, method, tuple(used))
-    if best is None:  # pragma: no cover - every method of OpenCV failing at once
-        raise ValueError("cv2.calibrateHandEye found no transform with any method: check the poses and the images")
+    if best is None:
+        raise ValueError(
+            "cv2.calibrateHandEye found no transform with any of its methods: the gripper poses and the board's poses "
+            "disagree; check that each pose is gripper-to-base, in metres, and paired with its image"
+        )
     return best
 
 

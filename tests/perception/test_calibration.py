@@ -87,6 +87,18 @@ def test_hand_camera_is_recovered_from_rendered_views(views, tmp_path):
 
 
 @needs_gl
+def test_residuals_expose_mixed_up_poses(views):
+    # the residuals are what a user checks: poses paired with the wrong images, or given
+    # base-to-gripper instead of gripper-to-base, spread the board over centimetres
+    poses, images = views["hand"]
+    shuffled = poses[1:] + poses[:1]
+    inverted = [invert_transform(p) for p in poses]
+    for wrong in (shuffled, inverted):
+        result = calibrate_hand_camera(images, wrong, TRUE, BOARD)
+        assert result.board_spread_m > 0.01 and result.reprojection_rms_px > 10.0, (result.board_spread_m, result.reprojection_rms_px)
+
+
+@needs_gl
 def test_cli_calibrates_from_image_folders(views, tmp_path, capsys):
     for name, (poses, images) in views.items():
         (tmp_path / name).mkdir()
