@@ -12,6 +12,14 @@ recall when the detector reports it too.
 Distance: from the camera to the object's centroid in the floor plane. Bearing: the angle between
 the camera's axis and the direction to the centroid, in the floor plane (0: straight ahead).
 
+Each object the geometric rule reports and the detector misses is put down to the first cause that
+applies (``miss_causes``): ``no tag`` (no face wide enough for one), ``facing away`` (no tag turned
+less than 75 degrees from the camera), ``out of view`` (no such tag wholly in the image),
+``hidden`` (each such tag has a corner or its centre behind another object: rays from the camera),
+``small`` (the largest such tag under 16 px a side in the image), else ``not decoded`` (in view,
+unhidden, large enough, yet not decoded or dropped by the detector: oblique, blurred, or its tags
+disagreeing).
+
     MUJOCO_GL=egl python -m benchmarks.mujoco_tags --scenes 40
     MUJOCO_GL=egl python -m benchmarks.mujoco_tags --scenes 40 --lighting 0.4 --image-noise 3 --out tags_noisy.json
 """
@@ -35,6 +43,9 @@ from occrl.perception.frames import angle_difference
 DISTANCE_BINS = (0.0, 0.15, 0.25, 0.35, math.inf)  # m
 BEARING_BINS = (0.0, 10.0, 20.0, 30.0, math.inf)  # degrees
 FIRST_SEED = 10_000_000
+FACING_DEG = 75.0  # a tag turned further than this from the camera counts as facing away
+SMALL_PX = 16.0  # a tag under this many pixels a side counts as too small
+MISS_CAUSES = ("no tag", "facing away", "out of view", "hidden", "small", "not decoded")
 
 
 def view_poses(scene, views: int, rng: np.random.Generator) -> list[tuple[float, float, float]]:
@@ -52,6 +63,67 @@ def place_gripper(world, pose) -> None:
     mujoco.mj_forward(world.model, world.data)
 
 
+def miss_cause(world, observer, k: int) -> str:
+    """Why object ``k``'s tags were not decoded (the first of :data:`MISS_CAUSES` that applies)."""
+    import cv2
+    import mujoco
+
+    from occrl.envs.mujoco3d.camera import VISIBLE_GROUPS
+    from occrl.perception.frames import gripper_pose_matrix, invert_transform
+
+    entries = [e for e in observer.catalogue if e.type_id == int(world.type_ids[k])]
+    if not entries:
+        return "no tag"
+    shelf_object = gripper_pose_matrix(*world.object_poses()[k])
+    shelf_camera = world.gripper_transform() @ observer.calibration.hand_camera
+    camera_shelf = invert_transform(shelf_camera)
+    cam = shelf_camera[:3, 3]
+    facing = []
+    for e in entries:
+        t = shelf_object @ e.tag_in_object
+        to_cam = cam - t[:3, 3]
+        angle = math.degrees(math.acos(float(np.clip(np.dot(t[:3, 2], to_cam) / np.linalg.norm(to_cam), -1.0, 1.0))))
+        if angle < FACING_DEG:
+            facing.append((e, t))
+    if not facing:
+        return "facing away"
+    in_view = []
+    for e, t in facing:
+        corners = e.corners_in_object @ shelf_object[:3, :3].T + shelf_object[:3, 3]
+        in_cam = corners @ camera_shelf[:3, :3].T + camera_shelf[:3, 3]
+        if (in_cam[:, 2] <= 0).any():
+            continue
+        px, _ = cv2.projectPoints(
+            in_cam, np.zeros(3), np.zeros(3), observer.calibration.intrinsic_matrix, observer.calibration.distortion_array
+        )
+        px = px.reshape(4, 2)
+        if (px >= 0).all() and (px[:, 0] < observer.calibration.width).all() and (px[:, 1] < observer.calibration.height).all():
+            in_view.append((e, t, corners, px))
+    if not in_view:
+        return "out of view"
+    unhidden = []
+    geom = np.zeros(1, dtype=np.int32)
+    for e, t, corners, px in in_view:
+        centre = t[:3, 3]
+        points = [centre] + [centre + 0.95 * (c - centre) for c in corners]
+        clear = True
+        for p in points:
+            ray = p - cam
+            dist = float(np.linalg.norm(ray))
+            hit = mujoco.mj_ray(world.model, world.data, cam, ray / dist, VISIBLE_GROUPS, 1, -1, geom)
+            if world.geom_slot[geom[0]] != k or hit < dist - 0.002:
+                clear = False
+                break
+        if clear:
+            unhidden.append(px)
+    if not unhidden:
+        return "hidden"
+    sides = [min(float(np.linalg.norm(px[i] - px[(i + 1) % 4])) for i in range(4)) for px in unhidden]
+    if max(sides) < SMALL_PX:
+        return "small"
+    return "not decoded"
+
+
 def measure(scenes: int, views: int, settings: WristCameraSettings, seed: int) -> dict:
     import cv2
 
@@ -59,6 +131,7 @@ def measure(scenes: int, views: int, settings: WristCameraSettings, seed: int) -
     rng = np.random.default_rng(seed)
     rows = []  # one per decoded object: distance, bearing, position error (m), yaw error (deg)
     geometric = found = extra = frames = 0
+    causes = dict.fromkeys(MISS_CAUSES, 0)
     render_s, decode_s = [], []
     seeds = list(range(FIRST_SEED, FIRST_SEED + scenes))
     for s, scene in zip(seeds, task_scenes(2, seeds, (1, 10))):
@@ -83,6 +156,8 @@ def measure(scenes: int, views: int, settings: WristCameraSettings, seed: int) -
                 geometric += int(visible[k])
                 found += int(visible[k] and d is not None)
                 extra += int(d is not None and not visible[k])
+                if visible[k] and d is None:
+                    causes[miss_cause(world, observer, k)] += 1
                 if d is None:
                     continue
                 to = true[:2] - cam[:2]
@@ -93,7 +168,7 @@ def measure(scenes: int, views: int, settings: WristCameraSettings, seed: int) -
                 rows.append((distance, bearing, position, yaw))
         observer.close()
         world.close()
-    return summarise(np.array(rows).reshape(-1, 4), geometric, found, extra, frames, render_s, decode_s)
+    return summarise(np.array(rows).reshape(-1, 4), geometric, found, extra, frames, render_s, decode_s) | {"miss_causes": causes}
 
 
 def stats(rows: np.ndarray) -> dict:
@@ -175,6 +250,7 @@ def main(argv: list[str] | None = None) -> None:
         **result,
     }
     print(table(result))
+    print("misses by cause: " + ", ".join(f"{n} {c}" for c, n in result["miss_causes"].items()))
     if args.out:
         with open(args.out, "w") as f:
             json.dump(result, f, indent=2)

@@ -10,13 +10,16 @@ project almost alike, OpenCV's IPPE returns both):
 
 1. each decoded tag of the catalogue gives one or two object poses: IPPE's best and, when it
    reprojects within :data:`AMBIGUITY_PX` pixels of the best, the other one;
-2. an object seen through one tag takes the candidate whose up axis is closest to the shelf's
-   (objects stand on the shelf floor);
+2. an object seen through one tag takes, among the candidates whose up axis is within
+   :data:`UPRIGHT_TOLERANCE_DEG` of the most upright one's (objects stand on the shelf floor), the
+   one with the least reprojection error: a tag seen face-on has two upright candidates mirrored
+   about the vertical, and the tilt alone cannot tell them apart;
 3. an object seen through several tags takes one candidate per tag such that all agree pairwise
-   within ``agreement`` (2 cm and 10 degrees by default), the combination with the least total tilt
-   when several do, and reports their mean pose; when no combination agrees, the object is dropped
-   for that frame (not reported), counted in :attr:`TagDetector.disagreement_count` and warned once
-   per type.
+   within ``agreement`` (2 cm and 10 degrees by default); among the agreeing combinations whose
+   total tilt is within :data:`UPRIGHT_TOLERANCE_DEG` of the least, the one with the least total
+   reprojection error, and reports their mean pose; when no combination agrees, the object is
+   dropped for that frame (not reported), counted in :attr:`TagDetector.disagreement_count` and
+   warned once per type.
 
 A decoded tag id that the catalogue does not list is skipped, counted in
 :attr:`TagDetector.unknown_tag_count` and warned once per id. At most ``max_detections`` objects
@@ -44,6 +47,7 @@ __all__ = [
     "PoseCandidate",
     "REFINE_METHODS",
     "AMBIGUITY_PX",
+    "UPRIGHT_TOLERANCE_DEG",
     "DEFAULT_AGREEMENT",
     "MAX_DETECTIONS",
     "MIN_MARKER_DISTANCE_RATE",
@@ -54,6 +58,9 @@ logger = logging.getLogger(__name__)
 
 REFINE_METHODS = ("none", "subpix", "contour", "apriltag", "edges")
 AMBIGUITY_PX = 1.0  # IPPE's second pose is kept when it reprojects within this of the best (RMS pixels)
+# candidates (or combinations, by their total) this close to the least tilt count as upright alike:
+# the reprojection error chooses among them
+UPRIGHT_TOLERANCE_DEG = 5.0
 DEFAULT_AGREEMENT = (0.02, 10.0)  # metres, degrees
 MAX_DETECTIONS = 10  # the observation's object slots (occrl.envs.world_constants.MAX_OBJECTS)
 # OpenCV drops the smaller of two candidate squares closer than this (relative to the perimeter);
@@ -61,6 +68,15 @@ MAX_DETECTIONS = 10  # the observation's object slots (occrl.envs.world_constant
 # frames at 0.1-0.2 m (benchmarks/tag_detection.py); at 0.01 both outlines decode (one id twice)
 MIN_MARKER_DISTANCE_RATE = 0.02
 DUPLICATE_PX = 3.0  # the same id decoded twice with corners this close: one tag
+
+
+def most_upright_then_sharpest(scored: list[tuple[float, float, Any]]) -> Any:
+    """Of ``(tilt_deg, reprojection_px, item)`` triples, the item with the least reprojection error
+    among those whose tilt is within :data:`UPRIGHT_TOLERANCE_DEG` of the least (the first such on
+    a tie)."""
+    least = min(tilt for tilt, _, _ in scored)
+    upright = [s for s in scored if s[0] <= least + UPRIGHT_TOLERANCE_DEG]
+    return min(upright, key=lambda s: s[1])[2]
 
 
 class PoseCandidate(NamedTuple):
@@ -228,17 +244,15 @@ class TagDetector:
         if not candidates:
             return None
         if len(candidates) == 1:
-            best = min(candidates[0], key=lambda c: tilt_deg(c.shelf_object))
-            return planar_pose(best.shelf_object)
+            scored = [(tilt_deg(c.shelf_object), c.reprojection_px, c) for c in candidates[0]]
+            return planar_pose(most_upright_then_sharpest(scored).shelf_object)
         # beyond 8 tags, the rest add their best candidate only (at most 2^8 combinations)
         options = candidates[:8] + [c[:1] for c in candidates[8:]]
-        chosen = None
+        agreeing = []
         for combo in itertools.product(*options):
             if all(self._agree(a.shelf_object, b.shelf_object) for a, b in itertools.combinations(combo, 2)):
-                tilt = sum(tilt_deg(c.shelf_object) for c in combo)
-                if chosen is None or tilt < chosen[0]:
-                    chosen = (tilt, combo)
-        if chosen is None:
+                agreeing.append((sum(tilt_deg(c.shelf_object) for c in combo), sum(c.reprojection_px for c in combo), combo))
+        if not agreeing:
             self.disagreement_count += 1
             if type_id not in self._warned_disagreement:
                 self._warned_disagreement.add(type_id)
@@ -249,7 +263,7 @@ class TagDetector:
                     *self.agreement,
                 )
             return None
-        poses = np.array([planar_pose(c.shelf_object) for c in chosen[1]])
+        poses = np.array([planar_pose(c.shelf_object) for c in most_upright_then_sharpest(agreeing)])
         theta = math.atan2(np.sin(poses[:, 2]).mean(), np.cos(poses[:, 2]).mean())
         return float(poses[:, 0].mean()), float(poses[:, 1].mean()), theta
 
