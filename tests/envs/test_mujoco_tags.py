@@ -30,7 +30,7 @@ TWO_IN_VIEW = scene([(-0.06, 0.15, 0.2, False), (0.07, 0.2, -0.3, True)], half=0
 
 
 def test_tags_sit_on_every_face_wide_enough_with_ids_by_type():
-    triangle = [[-0.02, -0.02], [0.03, -0.02], [-0.02, -0.006]]  # face 2 is 1.4 cm: no tag fits
+    triangle = [[-0.02, -0.02], [0.03, -0.02], [-0.02, -0.01]]  # face 2 is 1 cm: no tag fits
     s = Scene.from_objects(
         [
             {

@@ -45,10 +45,10 @@ __all__ = [
     "add_tags",
 ]
 
-MIN_TAG_SIZE = 0.010  # m, side of the black square
-MAX_TAG_SIZE = 0.030  # m: larger faces still carry a 3 cm tag
+MIN_TAG_SIZE = 0.008  # m, side of the black square (1 mm cells: still sharp from a 300 dpi print)
+MAX_TAG_SIZE = 0.060  # m: larger faces still carry a 6 cm tag (its card fits the shortest object, 10 cm)
 BORDER_CELLS = 1  # white border around the black square, in cells (the square is 8 cells wide)
-FACE_CLEARANCE = 0.002  # m kept free between the border and each vertical edge of the face
+FACE_CLEARANCE = 0.0005  # m kept free between the border and each vertical edge of the face
 TAG_CENTRE_Z = 0.07  # m above the shelf floor: the wrist camera's height
 CARD_THICKNESS = 0.0002
 CARD_STANDOFF = 0.00005  # the print stands this far out of the face (no depth fighting with it)
@@ -113,8 +113,8 @@ def tag_placements(scene: Scene, heights: np.ndarray) -> list[TagPlacement]:
         >>> box = [[-0.03, -0.02], [0.03, -0.02], [0.03, 0.02], [-0.03, 0.02]]
         >>> scene = Scene.from_objects([{"vertices": box, "pose": (0.0, 0.2, 0.0), "is_target": True, "type_id": 2}])
         >>> tags = tag_placements(scene, np.array([0.12]))
-        >>> [(t.tag_id, t.face, round(t.size, 4)) for t in tags]  # long faces 3 cm tags, short ones 2.88 cm
-        [(8, 0, 0.03), (9, 1, 0.0288), (10, 2, 0.03), (11, 3, 0.0288)]
+        >>> [(t.tag_id, t.face, round(t.size, 4)) for t in tags]  # as wide as each face allows
+        [(8, 0, 0.0472), (9, 1, 0.0312), (10, 2, 0.0472), (11, 3, 0.0312)]
         >>> tags[0].up, tags[0].tag_to_object[:3, 3].round(5).tolist()  # 7 cm up: 1 cm above mid-height, on the front face
         (0.07, [0.0, -0.02005, 0.01])
     """
