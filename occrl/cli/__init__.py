@@ -239,6 +239,13 @@ def add_eval(sub: argparse._SubParsersAction) -> None:
         '(geometric) or what a tag detector decodes in the wrist camera\'s 640 x 480 image (tags; pip install -e ".[camera]")',
     )
     e.add_argument(
+        "--shelf-height",
+        type=float,
+        default=None,
+        help="with --world mujoco: the shelf's inside height in m, 0.2-1.0 (0.30 when not given; the papers' real-robot "
+        "protocol: 0.40 with --stage 2 --objects 1-8)",
+    )
+    e.add_argument(
         "--noise",
         type=NOISE,
         default=0.0,

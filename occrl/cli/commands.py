@@ -191,6 +191,7 @@ def run_eval(args: argparse.Namespace) -> int:
         ]
         ignored += ["--world mujoco"] if args.world != "pymunk" else []
         ignored += ["--perception tags"] if args.perception != "geometric" else []
+        ignored += ["--shelf-height"] if args.shelf_height is not None else []
         if ignored:
             print(
                 f"--sweep runs the papers' sweeps in the 2D world on stage-2 scenes with their own object counts "
@@ -243,6 +244,17 @@ def run_eval(args: argparse.Namespace) -> int:
     if args.perception != "geometric" and args.world != "mujoco":
         print(f"--perception {args.perception} needs --world mujoco (the 2D world has no camera image)", file=sys.stderr)
         return 2
+    if args.shelf_height is not None:
+        from occrl.envs.mujoco3d.model import check_shelf_height
+
+        if args.world != "mujoco":
+            print("--shelf-height needs --world mujoco (the 2D world has no height)", file=sys.stderr)
+            return 2
+        try:
+            check_shelf_height(args.shelf_height)
+        except ValueError as e:
+            print(f"--shelf-height: {e}", file=sys.stderr)
+            return 2
     seeds = list(range(args.seed, args.seed + args.tasks))
     objects = parse_objects(args.objects)
     batch = 1 if is_planner(args.method) else args.batch  # planners: one world per task, exact per-task time
@@ -265,6 +277,7 @@ def run_eval(args: argparse.Namespace) -> int:
             inference=args.inference,
             replicate=args.replicate,
             perception=args.perception,
+            shelf_height=args.shelf_height,
         )
     finally:
         _stop_ray_if_used(args)
@@ -276,6 +289,7 @@ def run_eval(args: argparse.Namespace) -> int:
         "noise": args.noise,
         "world": args.world,
         **({"perception": args.perception} if args.perception != "geometric" else {}),
+        **({"shelf_height": args.shelf_height} if args.shelf_height is not None else {}),
         "first_seed": args.seed,
         **({"inference": args.inference} if args.inference != "torch" else {}),
         **({"replicate": args.replicate} if args.replicate else {}),

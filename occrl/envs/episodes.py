@@ -176,6 +176,7 @@ def seeded_task_env(
     replicate: int = 0,
     remembered_detections: bool = False,
     perception: str = "geometric",
+    shelf_height: float | None = None,
 ):
     """The env of a batch of tasks, with the env and the decision maker seeded by the task seeds:
     what :func:`run_episodes` runs, and what a replay of one of its episodes must build.
@@ -185,7 +186,8 @@ def seeded_task_env(
     first seed (``reseed``, e.g. the planners, run one task per batch). Either way results do not
     depend on how tasks are spread over processes. ``replicate`` > 0 seeds the decision maker by
     :func:`decision_seed` instead (the env keeps the task seeds). ``perception="tags"`` makes the
-    MuJoCo env report what its tag detector decodes (:class:`~occrl.envs.MujocoShelfEnv`).
+    MuJoCo env report what its tag detector decodes (:class:`~occrl.envs.MujocoShelfEnv`);
+    ``shelf_height`` (MuJoCo only; None: the env's 0.30 m) sets its shelf's inside height.
 
     Examples:
         >>> from occrl.baselines import ScriptedRetriever
@@ -196,6 +198,8 @@ def seeded_task_env(
     """
     decision_seeds = [decision_seed(s, replicate) for s in seeds]  # a bad replicate fails before any env is built
     check_perception(perception, world)
+    if shelf_height is not None and world != "mujoco":
+        raise ValueError(f"shelf_height needs world='mujoco' (the 2D world has no height), got world={world!r}")
     env = make_env(
         batch_size=len(scenes),
         scenes=list(scenes),
@@ -206,6 +210,7 @@ def seeded_task_env(
         size=size,
         remembered_detections=remembered_detections,
         **({"perception": perception} if perception != "geometric" else {}),
+        **({"shelf_height": shelf_height} if shelf_height is not None else {}),
     )
     for p in primers:
         env.append_transform(p.clone() if hasattr(p, "clone") else p)
@@ -247,11 +252,12 @@ def run_episodes(
     on_env: Callable[[EnvBase], None] | None = None,
     on_rollout: Callable[[TensorDictBase], None] | None = None,
     perception: str = "geometric",
+    shelf_height: float | None = None,
 ) -> list[EpisodeResult]:
     """Run ``policy`` once on each scene (batches of ``batch_size`` worlds stepped together);
     ``replicate`` > 0 draws the decision maker's randomness anew (:func:`decision_seed`);
     ``remembered_detections`` and ``size`` make the env a network needs (``make_env``);
-    ``perception`` is the MuJoCo env's (:func:`seeded_task_env`).
+    ``perception`` and ``shelf_height`` are the MuJoCo env's (:func:`seeded_task_env`).
     Diagnoses look inside through two hooks: ``on_env`` gets each batch's env before its
     roll-out (e.g. to hand a policy the worlds' true state: ``env.base_env.worlds``),
     ``on_rollout`` each batch's trajectory (batch, time) after it.
@@ -274,7 +280,18 @@ def run_episodes(
         chunk = list(scenes[start : start + batch_size])
         chunk_seeds = list(seeds[start : start + batch_size])
         env = seeded_task_env(
-            policy, chunk, chunk_seeds, noise, primers, heatmap_target, world, size, replicate, remembered_detections, perception
+            policy,
+            chunk,
+            chunk_seeds,
+            noise,
+            primers,
+            heatmap_target,
+            world,
+            size,
+            replicate,
+            remembered_detections,
+            perception,
+            shelf_height,
         )
         if on_env is not None:
             on_env(env)

@@ -174,9 +174,10 @@ def _init_worker(method: str, weights, threads: int, settings: dict) -> None:
 
 
 def _run_chunk(args) -> list[EpisodeResult]:
-    stage, seeds, num_objects, noise, world, replicate, perception = args
+    stage, seeds, num_objects, noise, world, replicate, perception, shelf_height = args
     m = _WORKER["method"]
     options = {"perception": perception} if perception != "geometric" else {}
+    options |= {"shelf_height": shelf_height} if shelf_height is not None else {}
     return m.run_episodes(task_scenes(stage, seeds, num_objects), seeds, noise, len(seeds), world=world, replicate=replicate, **options)
 
 
@@ -258,6 +259,7 @@ def run_tasks(
     inference: str = "torch",
     replicate: int = 0,
     perception: str = "geometric",
+    shelf_height: float | None = None,
 ) -> list[EpisodeResult]:
     """Evaluate a named method on task seeds, in chunks of ``batch`` worlds spread over
     ``workers`` processes (``backend="local"``) or Ray actors (``backend="ray"``, a local runtime
@@ -268,7 +270,8 @@ def run_tasks(
     (:func:`~occrl.eval.methods.make_method`). ``replicate`` > 0 runs the same tasks with
     the decision maker's randomness drawn anew (:func:`~occrl.envs.episodes.decision_seed`; 0 is
     what every recorded result ran). ``perception="tags"`` (with ``world="mujoco"``) plans from what
-    the tag detector decodes in the wrist camera's image instead of the geometric visibility rule.
+    the tag detector decodes in the wrist camera's image instead of the geometric visibility rule;
+    ``shelf_height`` (with ``world="mujoco"``; None: 0.30 m) the MuJoCo shelf's inside height.
     ``progress``: show a progress bar with an ETA
     (``True``), none (``False``), or advance a ``tqdm`` bar the caller owns (a sweep's).
 
@@ -286,7 +289,13 @@ def run_tasks(
     own_bar = not hasattr(progress, "update")
     bar = tqdm(total=len(seeds), desc=f"{method} stage {stage} noise {noise}", unit="task", disable=not progress) if own_bar else progress
     results: list[list[EpisodeResult]] = [None] * len(chunks)
-    jobs = [(stage, c, num_objects, noise, world, replicate, perception) for c in chunks]
+    if shelf_height is not None:
+        if world != "mujoco":
+            raise ValueError(f"shelf_height needs world='mujoco' (the 2D world has no height), got world={world!r}")
+        from occrl.envs.mujoco3d.model import check_shelf_height
+
+        check_shelf_height(shelf_height)
+    jobs = [(stage, c, num_objects, noise, world, replicate, perception, shelf_height) for c in chunks]
     settings = dict(inference=inference)  # make_method's
     if backend == "ray":
         results = _run_tasks_ray(method, weights, jobs, max(1, workers), ray_address, bar, settings)

@@ -229,3 +229,39 @@ def test_both_worlds_offer_the_world_protocol_and_share_the_task():
             assert out == task_outcome(world.object_poses(), world.held, world.target_index)  # nothing fell
     finally:
         mujoco_world.close()
+
+
+def test_shelf_height_moves_the_top_board_only():
+    import mujoco
+
+    def run(**kw):
+        env = MujocoShelfEnv(batch_size=1, stage=2, seed=7, noise=0.2, visibility="rays", **kw)
+        g = torch.Generator().manual_seed(0)
+        td = env.rollout(4, lambda td: td.set("action", torch.rand(1, 4, generator=g) * 2 - 1), break_when_any_done=False)
+        world = env.worlds[0]
+        top = mujoco.mj_name2id(world.model, mujoco.mjtObj.mjOBJ_GEOM, "top")
+        return td, float(world.data.geom_xpos[top][2] - world.model.geom_size[top][2])
+
+    (low, low_top), (high, high_top) = run(), run(shelf_height=0.4)
+    assert low_top == pytest.approx(0.30) and high_top == pytest.approx(0.40)  # the top board's underside
+    assert torch.equal(low["next", "privileged", "object_pose"], high["next", "privileged", "object_pose"])
+    assert (low["next", "objects"] == high["next", "objects"]).all()
+    for bad in (0.1, 2.0, True, "0.4"):
+        with pytest.raises(ValueError, match=r"shelf_height must be a number of metres in \[0.2, 1.0\]"):
+            MujocoShelfEnv(batch_size=1, shelf_height=bad)
+
+
+def test_occrl_eval_passes_shelf_height_through(tmp_path, capsys):
+    import json
+
+    from occrl.cli import main
+
+    assert main(["eval", "--method", "scripted", "--shelf-height", "0.4", "--tasks", "1"]) == 2
+    assert "--shelf-height needs --world mujoco" in capsys.readouterr().err
+    assert main(["eval", "--method", "scripted", "--world", "mujoco", "--shelf-height", "0.1", "--tasks", "1"]) == 2
+    assert "shelf_height must be a number of metres in [0.2, 1.0]" in capsys.readouterr().err
+    out = tmp_path / "shelf.json"
+    args = ["eval", "--method", "scripted", "--world", "mujoco", "--shelf-height", "0.4", "--objects", "1", "--tasks", "1", "--no-progress"]
+    assert main([*args, "--out", str(out)]) == 0
+    result = json.loads(out.read_text())
+    assert result["shelf_height"] == 0.4 and result["success_rate"] == 1.0

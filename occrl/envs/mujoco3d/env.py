@@ -19,7 +19,7 @@ from torchrl.data import Bounded
 
 from occrl.envs import world_constants as C
 from occrl.envs.mujoco3d.camera import CameraConfig, gl_available, require_mujoco
-from occrl.envs.mujoco3d.model import OBJECT_HEIGHT_RANGE
+from occrl.envs.mujoco3d.model import OBJECT_HEIGHT_RANGE, SHELF_HEIGHT, check_shelf_height
 from occrl.envs.mujoco3d.world import MujocoWorld
 from occrl.envs.mujoco3d.wrist_camera import WristCameraSettings
 from occrl.envs.scene import Scene
@@ -81,6 +81,10 @@ class MujocoShelfEnv(ShelfEnv):
         camera_size: (height, width) of the camera image, used for visibility and recording.
         object_height: object height in m, or a (low, high) range from which each type id gets
             a fixed height.
+        shelf_height: the shelf's inside height in m (0.30 by default; 0.40 is the papers' real
+            shelf, :data:`~occrl.envs.mujoco3d.model.PAPERS_SHELF_HEIGHT`): only the top board
+            moves (above every object and the gripper), so what changes is the light in the
+            camera's images.
         perception: ``"geometric"`` (the default: the objects more than 50 % visible, at their true
             poses) or ``"tags"`` (what the tag detector decodes; needs OpenCV,
             ``pip install -e ".[camera]"``, and an OpenGL backend).
@@ -119,8 +123,10 @@ class MujocoShelfEnv(ShelfEnv):
         object_height: float | tuple[float, float] = OBJECT_HEIGHT_RANGE,
         perception: str = "geometric",
         wrist_camera: WristCameraSettings | None = None,
+        shelf_height: float = SHELF_HEIGHT,
     ) -> None:
         require_mujoco()
+        self.shelf_height = check_shelf_height(shelf_height)
         if visibility not in VISIBILITY_BACKENDS:
             raise ValueError(f"visibility must be one of {VISIBILITY_BACKENDS}, got {visibility!r}")
         if perception not in PERCEPTION_MODES:
@@ -215,6 +221,7 @@ class MujocoShelfEnv(ShelfEnv):
             rng=self._rngs[i],
             object_height=self.object_height,
             tags=tags,
+            shelf_height=self.shelf_height,
         )
         if tags:
             from occrl.envs.detection_slots import DetectionSlots

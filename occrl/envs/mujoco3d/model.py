@@ -1,7 +1,8 @@
 """The 3D shelf model of :class:`~occrl.envs.MujocoShelfEnv`, built with dm_control ``mjcf``
 (DESIGN section 10). Shelf frame with z up; the shelf floor's top is z = 0.
 
-* Shelf W 0.50 x D 0.35 x H 0.30 m: floor, side walls, back wall and top board (2 cm boards); the
+* Shelf W 0.50 x D 0.35 x H 0.30 m (``shelf_height``; the papers' real shelf is 0.40 m high,
+  :data:`PAPERS_SHELF_HEIGHT`): floor, side walls, back wall and top board (2 cm boards); the
   front y = 0 is open. A ground plane 0.75 m below catches what falls off.
 * Objects: each scene polygon extruded to a prism (a mesh geom; MuJoCo collides with its convex
   hull, which is the prism itself) on a free joint, of height ``object_height`` (by default a
@@ -26,10 +27,22 @@ from occrl.envs import world_constants as C
 from occrl.envs.mujoco3d.camera import NEAR, CameraConfig, require_mujoco
 from occrl.envs.scene import Scene
 
-__all__ = ["build_mjcf", "type_height", "OBJECT_HEIGHT_RANGE", "OBJECT_DENSITY", "TIMESTEP"]
+__all__ = [
+    "build_mjcf",
+    "check_shelf_height",
+    "type_height",
+    "OBJECT_HEIGHT_RANGE",
+    "OBJECT_DENSITY",
+    "TIMESTEP",
+    "SHELF_HEIGHT",
+    "PAPERS_SHELF_HEIGHT",
+    "SHELF_HEIGHT_RANGE",
+]
 
 # --- 3D model (metres, kg, s) ------------------------------------------------------------------
-SHELF_HEIGHT = 0.30
+SHELF_HEIGHT = 0.30  # m, inside: the floor's top to the top board's underside
+PAPERS_SHELF_HEIGHT = 0.40  # m: the shelf of the papers' real-robot experiments (W 50 x D 35 x H 40 cm)
+SHELF_HEIGHT_RANGE = (0.20, 1.0)  # m: above the tallest object (18 cm), within the scene's lighting
 BOARD = C.WALL_THICKNESS
 GROUND_Z = -0.75
 OBJECT_HEIGHT_RANGE = (0.10, 0.18)
@@ -72,8 +85,30 @@ def _box(body, name, lo, hi, **kw):
     return body.add("geom", name=name, type="box", pos=(lo + hi) / 2, size=(hi - lo) / 2, **kw)
 
 
-def build_mjcf(scene: Scene, camera: CameraConfig, object_height=OBJECT_HEIGHT_RANGE):
-    """The dm_control ``mjcf`` model of a scene (shelf, objects, gripper with camera).
+def check_shelf_height(shelf_height: float) -> float:
+    """``shelf_height`` as a float, or ``ValueError`` unless it is a number of metres in
+    :data:`SHELF_HEIGHT_RANGE`.
+
+    Examples:
+        >>> from occrl.envs.mujoco3d.model import check_shelf_height
+        >>> check_shelf_height(0.4)
+        0.4
+        >>> check_shelf_height(0.1)
+        Traceback (most recent call last):
+        ...
+        ValueError: shelf_height must be a number of metres in [0.2, 1.0] (above the tallest object, 0.18 m), got 0.1
+    """
+    lo, hi = SHELF_HEIGHT_RANGE
+    if isinstance(shelf_height, bool) or not isinstance(shelf_height, (int, float)) or not lo <= shelf_height <= hi:
+        raise ValueError(
+            f"shelf_height must be a number of metres in [{lo}, {hi}] (above the tallest object, {OBJECT_HEIGHT_RANGE[1]} m), got {shelf_height!r}"
+        )
+    return float(shelf_height)
+
+
+def build_mjcf(scene: Scene, camera: CameraConfig, object_height=OBJECT_HEIGHT_RANGE, shelf_height: float = SHELF_HEIGHT):
+    """The dm_control ``mjcf`` model of a scene (shelf, objects, gripper with camera);
+    ``shelf_height``: the shelf's inside height in m (:func:`check_shelf_height`).
 
     Examples:
         >>> from occrl.envs import Scene
@@ -85,6 +120,7 @@ def build_mjcf(scene: Scene, camera: CameraConfig, object_height=OBJECT_HEIGHT_R
         (4, 7, True)
     """
     _, mjcf = require_mujoco()
+    shelf_height = check_shelf_height(shelf_height)
     root = mjcf.RootElement(model="shelf")
     root.compiler.angle = "radian"
     root.option.timestep = TIMESTEP
@@ -105,7 +141,7 @@ def build_mjcf(scene: Scene, camera: CameraConfig, object_height=OBJECT_HEIGHT_R
     wb = root.worldbody
     wb.add("light", pos=(0.0, 0.1, 1.0), dir=(0, 0, -1), diffuse=(0.5, 0.5, 0.5))
     wb.add("geom", name="ground", type="plane", size=(2, 2, 0.1), pos=(0, 0, GROUND_Z), rgba=(0.3, 0.3, 0.3, 1))
-    w, d, t, h = C.SHELF_HALF_WIDTH, C.SHELF_DEPTH, BOARD, SHELF_HEIGHT
+    w, d, t, h = C.SHELF_HALF_WIDTH, C.SHELF_DEPTH, BOARD, shelf_height
     wood = dict(rgba=(0.55, 0.35, 0.2, 1.0), group=0)
     _box(wb, "floor", (-w - t, 0.0, -t), (w + t, d + t, 0.0), rgba=(0.75, 0.75, 0.75, 1.0), group=0)
     _box(wb, "wall_left", (-w - t, 0.0, 0.0), (-w, d + t, h), **wood)

@@ -18,7 +18,7 @@ import numpy as np
 from occrl.envs import world_constants as C
 from occrl.envs.mujoco3d.camera import VISIBLE_GROUPS, CameraConfig, close_renderer, new_renderer, prism_pixel_counts, require_mujoco
 from occrl.envs.mujoco3d.tags import TagPlacement, add_tags, tag_placements
-from occrl.envs.mujoco3d.model import FINGER_CLOSED_TARGET, OBJECT_HEIGHT_RANGE, TIMESTEP, build_mjcf, type_height
+from occrl.envs.mujoco3d.model import FINGER_CLOSED_TARGET, OBJECT_HEIGHT_RANGE, SHELF_HEIGHT, TIMESTEP, build_mjcf, type_height
 from occrl.envs.pymunk2d.physics_settings import INVALID_PENETRATION
 from occrl.envs.scene import Scene
 from occrl.envs.shelf_geometry import beyond_walls
@@ -42,6 +42,7 @@ class MujocoWorld:
         object_height: a height in m, or a (low, high) range sampled per type id.
         tags: put a fiducial tag on every side face wide enough (:mod:`~occrl.envs.mujoco3d.tags`;
             needs OpenCV); the cards are visual only, so physics and visibility are unchanged.
+        shelf_height: the shelf's inside height in m (0.30 by default; the papers' real shelf: 0.40).
 
     Examples:
         >>> from occrl.envs import Scene
@@ -64,6 +65,7 @@ class MujocoWorld:
         rng: np.random.Generator | None = None,
         object_height=OBJECT_HEIGHT_RANGE,
         tags: bool = False,
+        shelf_height: float = SHELF_HEIGHT,
     ) -> None:
         mujoco, mjcf = require_mujoco()
         if visibility not in ("render", "rays"):
@@ -84,7 +86,7 @@ class MujocoWorld:
             self.padded_vertices[i, len(o.vertices) :] = o.vertices[0]
         self.heights = np.array([type_height(int(t), object_height) for t in self.type_ids])
 
-        self.mjcf_model = build_mjcf(scene, camera, object_height)
+        self.mjcf_model = build_mjcf(scene, camera, object_height, shelf_height)
         self.tags: list[TagPlacement] = []
         if tags:
             self.tags = tag_placements(scene, self.heights)
