@@ -242,8 +242,8 @@ def add_eval(sub: argparse._SubParsersAction) -> None:
         "--shelf-height",
         type=float,
         default=None,
-        help="with --world mujoco: the shelf's inside height in m, 0.2-1.0 (0.30 when not given; the papers' real-robot "
-        "protocol: 0.40 with --stage 2 --objects 1-8)",
+        help="with --world mujoco: the shelf's inside height in m, 0.2-1.0; the papers' real-robot protocol: 0.40 with "
+        "--stage 2 --objects 1-8 (default: 0.30)",
     )
     e.add_argument(
         "--noise",
