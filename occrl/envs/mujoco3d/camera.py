@@ -38,6 +38,7 @@ __all__ = [
     "gl_available",
     "new_renderer",
     "close_renderer",
+    "RendererOwner",
     "CameraConfig",
     "NEAR",
     "VISIBLE_GROUPS",
@@ -88,6 +89,25 @@ def close_renderer(renderer) -> None:
         ctx.make_current()
     renderer.close()
     _live_renderers.discard(renderer)
+
+
+class RendererOwner:
+    """A holder of one offscreen renderer (``self.renderer``, None when it has none): :meth:`close`
+    frees it, and so does garbage collection."""
+
+    renderer = None
+
+    def close(self) -> None:
+        """Free the renderer (also done when the holder is garbage collected)."""
+        if getattr(self, "renderer", None) is not None:
+            close_renderer(self.renderer)
+            self.renderer = None
+
+    def __del__(self) -> None:
+        try:
+            self.close()
+        except Exception:  # pragma: no cover - interpreter teardown
+            pass
 
 
 def _close_renderers() -> None:

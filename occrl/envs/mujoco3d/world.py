@@ -16,7 +16,7 @@ import math
 import numpy as np
 
 from occrl.envs import world_constants as C
-from occrl.envs.mujoco3d.camera import VISIBLE_GROUPS, CameraConfig, close_renderer, new_renderer, prism_pixel_counts, require_mujoco
+from occrl.envs.mujoco3d.camera import VISIBLE_GROUPS, CameraConfig, RendererOwner, new_renderer, prism_pixel_counts, require_mujoco
 from occrl.envs.mujoco3d.tags import TagPlacement, add_tags, tag_placements
 from occrl.envs.mujoco3d.model import FINGER_CLOSED_TARGET, OBJECT_HEIGHT_RANGE, SHELF_HEIGHT, TIMESTEP, build_mjcf, type_height
 from occrl.envs.pymunk2d.physics_settings import INVALID_PENETRATION
@@ -30,7 +30,7 @@ FINGER_TIME = 0.4  # s to open or close (the 2F-85 closes its 85 mm in ~0.6 s at
 SETTLE_TIME = 0.2  # s of holding still after a motion (quasi-static execution)
 
 
-class MujocoWorld:
+class MujocoWorld(RendererOwner):
     """A scene executed in MuJoCo: planar actions in, poses, grasp state and visibility out.
 
     Args:
@@ -133,18 +133,6 @@ class MujocoWorld:
             self.renderer = new_renderer(m, camera.height, camera.width)
             self._seg_option = mujoco.MjvOption()
             self._seg_option.geomgroup[:] = VISIBLE_GROUPS
-
-    def close(self) -> None:
-        """Free the renderer (also done when the world is garbage collected)."""
-        if getattr(self, "renderer", None) is not None:
-            close_renderer(self.renderer)
-            self.renderer = None
-
-    def __del__(self) -> None:
-        try:
-            self.close()
-        except Exception:  # pragma: no cover - interpreter teardown
-            pass
 
     # ------------------------------------------------------------------ state
     def gripper_pose(self) -> np.ndarray:

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from occrl.envs import world_constants as C
-from occrl.envs.mujoco3d.camera import close_renderer, new_renderer, require_mujoco
+from occrl.envs.mujoco3d.camera import RendererOwner, new_renderer, require_mujoco
 from occrl.envs.mujoco3d.tags import TAG_GROUP
 
 __all__ = ["WristCameraSettings", "WristCamera", "OPENCV_FROM_MUJOCO"]
@@ -79,7 +79,7 @@ class WristCameraSettings:
         return np.array([[f, 0.0, cx], [0.0, f, cy], [0.0, 0.0, 1.0]])
 
 
-class WristCamera:
+class WristCamera(RendererOwner):
     """RGB frames of a :class:`~occrl.envs.mujoco3d.world.MujocoWorld`'s wrist camera, tags drawn.
 
     The world's ``"wrist"`` camera must have this camera's vertical field of view (the env builds
@@ -134,14 +134,3 @@ class WristCamera:
         camera[:3, :3] = rot.reshape(3, 3) @ OPENCV_FROM_MUJOCO
         camera[:3, 3] = m.cam_pos[cam]
         return camera
-
-    def close(self) -> None:
-        if getattr(self, "renderer", None) is not None:
-            close_renderer(self.renderer)
-            self.renderer = None
-
-    def __del__(self) -> None:
-        try:
-            self.close()
-        except Exception:  # pragma: no cover - interpreter teardown
-            pass
