@@ -31,7 +31,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from occrl.perception.checks import finite_array, positive_number, rigid_transform, strict_int
+from occrl.perception.checks import check_keys, finite_array, positive_number, rigid_transform, strict_int
 
 __all__ = ["CameraModel", "load_camera", "save_camera", "forward_looking_hand_camera", "CAMERA_KEYS"]
 
@@ -163,12 +163,7 @@ class CameraModel:
         """The camera of a camera file's content; ``ValueError`` naming a missing or unknown key."""
         if not isinstance(data, dict):
             raise ValueError(f"{source} must hold a mapping with the keys {list(CAMERA_KEYS)}, got {type(data).__name__}")
-        missing = [k for k in REQUIRED_KEYS if k not in data]
-        if missing:
-            raise ValueError(f"{source} is missing {missing}: a calibration needs {list(REQUIRED_KEYS)} (and optionally 'distortion')")
-        unknown = sorted(set(data) - set(CAMERA_KEYS))
-        if unknown:
-            raise ValueError(f"{source} has unknown keys {unknown}; allowed: {list(CAMERA_KEYS)}")
+        check_keys(source, data, REQUIRED_KEYS, ("distortion",))
         kwargs = {k: data[k] for k in CAMERA_KEYS if k in data}
         try:
             return cls(**kwargs)

@@ -33,7 +33,7 @@ from typing import Any, Iterator, Sequence
 
 import numpy as np
 
-from occrl.perception.checks import convex_footprint, finite_array, positive_number, strict_int
+from occrl.perception.checks import check_keys, convex_footprint, finite_array, positive_number, strict_int
 from occrl.perception.opencv import DEFAULT_DICTIONARY, check_dictionary
 
 __all__ = ["TagEntry", "TagCatalogue", "MAX_TYPE_ID", "TAG_KEYS", "OBJECT_KEYS"]
@@ -223,21 +223,19 @@ class TagCatalogue:
         """The catalogue of a catalogue file's content; ``ValueError`` naming what is wrong where."""
         if not isinstance(data, dict) or not isinstance(data.get("objects"), list):
             raise ValueError(f"{source} must hold {{'dictionary': ..., 'objects': [...]}}, got {type(data).__name__}")
-        unknown = sorted(set(data) - {"dictionary", "objects"})
-        if unknown:
-            raise ValueError(f"{source} has unknown keys {unknown}; allowed: ['dictionary', 'objects']")
+        check_keys(source, data, ("objects",), ("dictionary",))
         entries = []
         for i, obj in enumerate(data["objects"]):
             where = f"{source}: objects[{i}]"
             if not isinstance(obj, dict):
                 raise ValueError(f"{where} must be a mapping with the keys {list(OBJECT_KEYS)}, got {obj!r}")
-            _check_keys(where, obj, OBJECT_KEYS)
+            check_keys(where, obj, OBJECT_KEYS)
             if not isinstance(obj["tags"], list) or not obj["tags"]:
                 raise ValueError(f"{where}: 'tags' must be a non-empty list of tags, got {obj['tags']!r}")
             for j, tag in enumerate(obj["tags"]):
                 if not isinstance(tag, dict):
                     raise ValueError(f"{where}: tags[{j}] must be a mapping with the keys {list(TAG_KEYS)}, got {tag!r}")
-                _check_keys(f"{where}: tags[{j}]", tag, TAG_KEYS)
+                check_keys(f"{where}: tags[{j}]", tag, TAG_KEYS)
                 try:
                     entries.append(
                         TagEntry(tag["tag_id"], obj["type_id"], obj["footprint"], obj["height"], tag["face"], tag["offset"], tag["size"])
@@ -264,12 +262,3 @@ class TagCatalogue:
     def to_json(self, path: str | Path) -> None:
         """Write the catalogue file."""
         Path(path).write_text(json.dumps(self.to_dict(), indent=2) + "\n")
-
-
-def _check_keys(where: str, data: dict, keys: tuple[str, ...]) -> None:
-    missing = [k for k in keys if k not in data]
-    if missing:
-        raise ValueError(f"{where} is missing {missing}; required: {list(keys)}")
-    unknown = sorted(set(data) - set(keys))
-    if unknown:
-        raise ValueError(f"{where} has unknown keys {unknown}; allowed: {list(keys)}")

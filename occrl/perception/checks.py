@@ -3,15 +3,46 @@ wrong kind of value) naming the field, the value and what is allowed."""
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Sequence
 
 import numpy as np
 
-__all__ = ["finite_array", "positive_number", "strict_int", "rigid_transform", "convex_footprint", "MIN_VERTICES", "MAX_VERTICES"]
+__all__ = [
+    "check_keys",
+    "finite_array",
+    "positive_number",
+    "strict_int",
+    "rigid_transform",
+    "convex_footprint",
+    "MIN_VERTICES",
+    "MAX_VERTICES",
+]
 
 # the footprint polygons observation_from_detections accepts (occrl.envs.world_constants)
 MIN_VERTICES = 3
 MAX_VERTICES = 8
+
+
+def check_keys(where: str, data: dict, required: Sequence[str], optional: Sequence[str] = ()) -> None:
+    """``ValueError`` when the mapping ``data`` (a file's entry) lacks one of ``required`` or holds
+    a key outside ``required`` and ``optional``.
+
+    Examples:
+        >>> from occrl.perception.checks import check_keys
+        >>> check_keys("tag", {"tag_id": 3, "size": 0.03}, ("tag_id", "size"))
+        >>> check_keys("tag", {"tag_id": 3}, ("tag_id", "size"))
+        Traceback (most recent call last):
+        ...
+        ValueError: tag is missing ['size']; required: ['tag_id', 'size']
+    """
+    missing = [k for k in required if k not in data]
+    if missing:
+        raise ValueError(
+            f"{where} is missing {missing}; required: {list(required)}" + (f", optional: {list(optional)}" if optional else "")
+        )
+    unknown = sorted(set(data) - set(required) - set(optional))
+    if unknown:
+        raise ValueError(f"{where} has unknown keys {unknown}; allowed: {[*required, *optional]}")
 
 
 def finite_array(name: str, value: Any, shape: tuple[int, ...], allowed: str) -> np.ndarray:

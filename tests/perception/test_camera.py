@@ -78,7 +78,7 @@ def test_missing_and_unknown_keys(tmp_path):
     data = good()
     del data["hand_camera"], data["fy"]
     (tmp_path / "c.json").write_text(json.dumps(data))
-    with pytest.raises(ValueError, match=r"is missing \['fy', 'hand_camera'\]: a calibration needs"):
+    with pytest.raises(ValueError, match=r"is missing \['fy', 'hand_camera'\]; required: "):
         load_camera(tmp_path / "c.json")
     (tmp_path / "c.json").write_text(json.dumps({**good(), "k1": 0.1}))
     with pytest.raises(ValueError, match=r"unknown keys \['k1'\]"):
