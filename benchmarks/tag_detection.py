@@ -140,6 +140,19 @@ def planar(args: argparse.Namespace) -> None:
     print("all frames: " + "; ".join(describe(found[m], m) for m in found))
 
 
+def timed_opencv(detector: TagDetector, image: np.ndarray, entry, shelf_camera: np.ndarray, times: dict[str, list[float]]) -> list:
+    """The tag's pose candidates in ``image`` (empty when it is not decoded); appends the decode
+    time and the decode-and-pose time (s) to ``times``."""
+    t0 = time.perf_counter()
+    tags = [t for t in detector.detect_tags(image) if t["tag_id"] == TAG_ID]
+    t1 = time.perf_counter()
+    candidates = detector.tag_pose_candidates(entry, tags[0]["corners"], shelf_camera) if tags else []
+    t2 = time.perf_counter()
+    times["decode"].append(t1 - t0)
+    times["decode_and_pose"].append(t2 - t0)
+    return candidates
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--frames", type=int, default=50, help="frames per distance and viewing angle")
@@ -189,13 +202,7 @@ def main() -> None:
             for _ in range(args.frames):
                 truth = random_pose(camera, distance, angle, rng)
                 image = render_tags(camera, [(TAG_ID, truth, TAG_SIZE)], noise_std=args.noise, rng=rng, rgb=False)
-                t0 = time.perf_counter()
-                tags = [t for t in detector.detect_tags(image) if t["tag_id"] == TAG_ID]
-                t1 = time.perf_counter()
-                candidates = detector.tag_pose_candidates(entry, tags[0]["corners"], shelf_camera) if tags else []
-                t2 = time.perf_counter()
-                times["opencv"]["decode"].append(t1 - t0)
-                times["opencv"]["decode_and_pose"].append(t2 - t0)
+                candidates = timed_opencv(detector, image, entry, shelf_camera, times["opencv"])
                 if candidates:
                     best = candidates[0].camera_tag
                     upright = min(candidates, key=lambda c: float(np.arccos(np.clip(c.shelf_object[2, 2], -1, 1)))).camera_tag
@@ -206,13 +213,7 @@ def main() -> None:
                 else:
                     found["opencv"]["missed"] += 1
                     found["opencv-upright"]["missed"] += 1
-                t0 = time.perf_counter()
-                tags = [t for t in edges.detect_tags(image) if t["tag_id"] == TAG_ID]
-                t1 = time.perf_counter()
-                candidates = edges.tag_pose_candidates(entry, tags[0]["corners"], shelf_camera) if tags else []
-                t2 = time.perf_counter()
-                times["opencv-edges"]["decode"].append(t1 - t0)
-                times["opencv-edges"]["decode_and_pose"].append(t2 - t0)
+                candidates = timed_opencv(edges, image, entry, shelf_camera, times["opencv-edges"])
                 if candidates:
                     p, r = errors(truth, candidates[0].camera_tag[:3, :3], candidates[0].camera_tag[:3, 3])
                     found["opencv-edges"]["position_mm"].append(p)
