@@ -42,6 +42,7 @@ from importlib.metadata import version
 import numpy as np
 
 from occrl.perception import CameraModel, TagCatalogue, TagDetector
+from occrl.perception.frames import rotation_angle_deg
 from occrl.perception.opencv import require_opencv
 from occrl.perception.synthetic import render_tags
 
@@ -79,8 +80,7 @@ def random_pose(camera: CameraModel, distance: float, angle: float, rng: np.rand
 
 def errors(truth: np.ndarray, rotation: np.ndarray, translation: np.ndarray) -> tuple[float, float]:
     position_mm = float(np.linalg.norm(translation - truth[:3, 3]) * 1e3)
-    cos = (np.trace(truth[:3, :3].T @ rotation) - 1) / 2
-    return position_mm, math.degrees(math.acos(float(np.clip(cos, -1.0, 1.0))))
+    return position_mm, rotation_angle_deg(truth[:3, :3].T @ rotation)
 
 
 def summary(values: list[float]) -> dict:

@@ -12,7 +12,6 @@ writes ``/tmp/calib/intrinsics/*.png`` (images for the intrinsics), ``/tmp/calib
 from __future__ import annotations
 
 import argparse
-import math
 import tempfile
 from pathlib import Path
 
@@ -21,10 +20,7 @@ import numpy as np
 from occrl.cli import main
 from occrl.envs.mujoco3d.calibration_scene import CalibrationScene
 from occrl.perception import load_camera
-
-
-def angle_deg(a: np.ndarray, b: np.ndarray) -> float:
-    return math.degrees(math.acos(float(np.clip((np.trace(a.T @ b) - 1) / 2, -1.0, 1.0))))
+from occrl.perception.frames import rotation_angle_deg
 
 
 def run(out: Path, intrinsic_images: int, hand_images: int, seed: int) -> dict[str, float]:
@@ -49,7 +45,7 @@ def run(out: Path, intrinsic_images: int, hand_images: int, seed: int) -> dict[s
         "cx_px": camera.cx - truth.cx,
         "cy_px": camera.cy - truth.cy,
         "hand_camera_mm": 1000 * float(np.linalg.norm(camera.hand_camera[:3, 3] - truth.hand_camera[:3, 3])),
-        "hand_camera_deg": angle_deg(camera.hand_camera[:3, :3], truth.hand_camera[:3, :3]),
+        "hand_camera_deg": rotation_angle_deg(camera.hand_camera[:3, :3].T @ truth.hand_camera[:3, :3]),
     }
     print(f"truth: fx = fy = {truth.fx:.2f}, cx {truth.cx}, cy {truth.cy} px (MuJoCo's pinhole, no distortion)")
     print(

@@ -23,7 +23,7 @@ import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
 from occrl.perception.checks import positive_number, strict_int
-from occrl.perception.opencv import DICTIONARIES, require_opencv
+from occrl.perception.opencv import DICTIONARIES, as_grey_image, require_opencv
 from occrl.perception.sheet import BAR_MM, MARGIN_MM, PAGE_SIZES_MM, SHEET_SUFFIXES, mm_to_px
 
 __all__ = [
@@ -34,7 +34,6 @@ __all__ = [
     "draw_board",
     "board_page",
     "write_board",
-    "as_grey_image",
     "BOARD_DICTIONARIES",
     "DEFAULT_BOARD_DICTIONARY",
     "MIN_BOARD_CORNERS",
@@ -146,21 +145,6 @@ class BoardView(NamedTuple):
     ids: np.ndarray
     image_points: np.ndarray
     board_points: np.ndarray
-
-
-def as_grey_image(name: str, image: Any) -> np.ndarray:
-    """``image`` as a 2D uint8 array: a grey ``(H, W)`` or an RGB ``(H, W, 3)`` uint8 image (a
-    ``(H, W, 4)`` one drops its alpha); ``ValueError`` naming the shape or type otherwise."""
-    if not isinstance(image, np.ndarray):
-        raise TypeError(f"{name} must be a numpy array (an image), got {type(image).__name__}")
-    if image.dtype != np.uint8:
-        raise ValueError(f"{name} must be uint8 (0-255), got dtype {image.dtype}")
-    if image.ndim == 3 and image.shape[2] in (3, 4):
-        cv2 = require_opencv()
-        image = cv2.cvtColor(np.ascontiguousarray(image[..., :3]), cv2.COLOR_RGB2GRAY)
-    if image.ndim != 2 or min(image.shape) < 8:
-        raise ValueError(f"{name} must be a grey (H, W) or RGB (H, W, 3) image of at least 8 x 8 pixels, got shape {image.shape}")
-    return np.ascontiguousarray(image)
 
 
 def find_board(image: np.ndarray, board: CalibrationBoard, detector: Any = None) -> BoardView | None:

@@ -35,11 +35,11 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from occrl.perception.board import BoardView, CalibrationBoard, as_grey_image, find_board
+from occrl.perception.board import BoardView, CalibrationBoard, find_board
 from occrl.perception.camera import CameraModel, load_camera, save_camera
 from occrl.perception.checks import rigid_transform
-from occrl.perception.frames import invert_transform
-from occrl.perception.opencv import require_opencv
+from occrl.perception.frames import invert_transform, rotation_angle_deg
+from occrl.perception.opencv import as_grey_image, require_opencv
 
 __all__ = [
     "IntrinsicCalibration",
@@ -203,11 +203,6 @@ def check_gripper_poses(gripper_poses: Sequence[Any]) -> list[np.ndarray]:
                 f"in metres (at most {MAX_REACH_M:g}), not millimetres"
             )
     return poses
-
-
-def rotation_angle_deg(r: np.ndarray) -> float:
-    """The angle of the 3x3 rotation ``r`` in degrees."""
-    return float(np.degrees(np.arccos(np.clip((np.trace(r) - 1) / 2, -1.0, 1.0))))
 
 
 def check_turns(poses: list[np.ndarray]) -> None:

@@ -40,7 +40,7 @@ from occrl.perception.catalogue import TagCatalogue, TagEntry
 from occrl.perception.edges import refine_corners_on_edges
 from occrl.perception.checks import positive_number, rigid_transform, strict_int
 from occrl.perception.frames import angle_difference, invert_transform, planar_pose, tilt_deg
-from occrl.perception.opencv import DEFAULT_DICTIONARY, aruco_dictionary, check_dictionary, require_opencv
+from occrl.perception.opencv import DEFAULT_DICTIONARY, aruco_dictionary, as_grey_image, check_dictionary, require_opencv
 
 __all__ = [
     "TagDetector",
@@ -180,9 +180,7 @@ class TagDetector:
             raise ValueError(
                 f"image must be ({h}, {w}, 3) RGB or ({h}, {w}) grey, uint8 (the camera's {w} x {h}), got shape {image.shape} and dtype {image.dtype}"
             )
-        if image.ndim == 3:
-            return self._cv2.cvtColor(np.ascontiguousarray(image), self._cv2.COLOR_RGB2GRAY)
-        return np.ascontiguousarray(image)
+        return as_grey_image("image", image)
 
     def detect_tags(self, image: np.ndarray) -> list[dict[str, Any]]:
         """The tags decoded in ``image`` (catalogued or not), for debugging: ``{"tag_id": int,

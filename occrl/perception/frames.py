@@ -13,7 +13,15 @@ import numpy as np
 
 from occrl.perception.checks import finite_array
 
-__all__ = ["gripper_pose_matrix", "invert_transform", "planar_pose", "tilt_deg", "rotation_about_z", "angle_difference"]
+__all__ = [
+    "gripper_pose_matrix",
+    "invert_transform",
+    "planar_pose",
+    "tilt_deg",
+    "rotation_angle_deg",
+    "rotation_about_z",
+    "angle_difference",
+]
 
 
 def rotation_about_z(theta: float) -> np.ndarray:
@@ -64,6 +72,17 @@ def planar_pose(shelf_object: np.ndarray) -> tuple[float, float, float]:
 def tilt_deg(shelf_object: np.ndarray) -> float:
     """The angle (degrees) between an object frame's z axis and the shelf's up axis."""
     return math.degrees(math.acos(float(np.clip(shelf_object[2, 2], -1.0, 1.0))))
+
+
+def rotation_angle_deg(r: np.ndarray) -> float:
+    """The angle (degrees) of the 3x3 rotation ``r``; of ``a.T @ b``, the angle between rotations ``a`` and ``b``.
+
+    Examples:
+        >>> from occrl.perception.frames import rotation_angle_deg, rotation_about_z
+        >>> round(rotation_angle_deg(rotation_about_z(0.5)), 4)  # 0.5 rad
+        28.6479
+    """
+    return float(np.degrees(np.arccos(np.clip((np.trace(r) - 1) / 2, -1.0, 1.0))))
 
 
 def angle_difference(a: float, b: float) -> float:

@@ -7,9 +7,19 @@ raises ``ImportError`` naming ``pip install "occrl[camera]"``.
 from __future__ import annotations
 
 from types import ModuleType
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
-__all__ = ["require_opencv", "aruco_dictionary", "check_dictionary", "TagDictionary", "DICTIONARIES", "DEFAULT_DICTIONARY"]
+import numpy as np
+
+__all__ = [
+    "require_opencv",
+    "as_grey_image",
+    "aruco_dictionary",
+    "check_dictionary",
+    "TagDictionary",
+    "DICTIONARIES",
+    "DEFAULT_DICTIONARY",
+]
 
 
 class TagDictionary(NamedTuple):
@@ -39,6 +49,21 @@ def require_opencv() -> ModuleType:
     if not hasattr(cv2, "aruco") or not hasattr(cv2.aruco, "ArucoDetector"):
         raise ImportError(f'OpenCV {cv2.__version__} has no ArUco detector (4.7 or newer needed): pip install "occrl[camera]"')
     return cv2
+
+
+def as_grey_image(name: str, image: Any) -> np.ndarray:
+    """``image`` as a 2D uint8 array: a grey ``(H, W)`` or an RGB ``(H, W, 3)`` uint8 image (a
+    ``(H, W, 4)`` one drops its alpha); ``ValueError`` naming the shape or type otherwise."""
+    if not isinstance(image, np.ndarray):
+        raise TypeError(f"{name} must be a numpy array (an image), got {type(image).__name__}")
+    if image.dtype != np.uint8:
+        raise ValueError(f"{name} must be uint8 (0-255), got dtype {image.dtype}")
+    if image.ndim == 3 and image.shape[2] in (3, 4):
+        cv2 = require_opencv()
+        image = cv2.cvtColor(np.ascontiguousarray(image[..., :3]), cv2.COLOR_RGB2GRAY)
+    if image.ndim != 2 or min(image.shape) < 8:
+        raise ValueError(f"{name} must be a grey (H, W) or RGB (H, W, 3) image of at least 8 x 8 pixels, got shape {image.shape}")
+    return np.ascontiguousarray(image)
 
 
 def check_dictionary(name: str) -> TagDictionary:
