@@ -246,6 +246,13 @@ def add_eval(sub: argparse._SubParsersAction) -> None:
         "--stage 2 --objects 1-8 (default: 0.30)",
     )
     e.add_argument(
+        "--tag-layout",
+        choices=["fitted", "at-most-3cm"],
+        default=None,
+        help="with --perception tags: how large the objects' tags are: each as wide as its face allows, 8 mm to 6 cm "
+        "(fitted) or 1 to 3 cm (at-most-3cm) (default: fitted)",
+    )
+    e.add_argument(
         "--noise",
         type=NOISE,
         default=0.0,

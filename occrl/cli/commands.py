@@ -199,6 +199,7 @@ def run_eval(args: argparse.Namespace) -> int:
         ignored += ["--world mujoco"] if args.world != "pymunk" else []
         ignored += ["--perception tags"] if args.perception != "geometric" else []
         ignored += ["--shelf-height"] if args.shelf_height is not None else []
+        ignored += ["--tag-layout"] if args.tag_layout is not None else []
         if ignored:
             print(
                 f"--sweep runs the papers' sweeps in the 2D world on stage-2 scenes with their own object counts "
@@ -262,6 +263,9 @@ def run_eval(args: argparse.Namespace) -> int:
         except ValueError as e:
             print(f"--shelf-height: {e}", file=sys.stderr)
             return 2
+    if args.tag_layout is not None and args.perception != "tags":
+        print("--tag-layout sizes the tags the detector reads: it needs --world mujoco --perception tags", file=sys.stderr)
+        return 2
     seeds = list(range(args.seed, args.seed + args.tasks))
     objects = parse_objects(args.objects)
     batch = 1 if is_planner(args.method) else args.batch  # planners: one world per task, exact per-task time
@@ -286,6 +290,7 @@ def run_eval(args: argparse.Namespace) -> int:
             perception=args.perception,
             shelf_height=args.shelf_height,
             remember_objects=args.remember_objects,
+            tag_layout=args.tag_layout,
         )
     finally:
         _stop_ray_if_used(args)
@@ -298,6 +303,7 @@ def run_eval(args: argparse.Namespace) -> int:
         "world": args.world,
         **({"perception": args.perception} if args.perception != "geometric" else {}),
         **({"shelf_height": args.shelf_height} if args.shelf_height is not None else {}),
+        **({"tag_layout": args.tag_layout} if args.tag_layout is not None else {}),
         "first_seed": args.seed,
         **({"inference": args.inference} if args.inference != "torch" else {}),
         **({"remember_objects": True} if args.remember_objects else {}),

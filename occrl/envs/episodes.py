@@ -177,6 +177,7 @@ def seeded_task_env(
     remembered_detections: bool = False,
     perception: str = "geometric",
     shelf_height: float | None = None,
+    tag_layout: str | None = None,
 ):
     """The env of a batch of tasks, with the env and the decision maker seeded by the task seeds:
     what :func:`run_episodes` runs, and what a replay of one of its episodes must build.
@@ -187,7 +188,8 @@ def seeded_task_env(
     depend on how tasks are spread over processes. ``replicate`` > 0 seeds the decision maker by
     :func:`decision_seed` instead (the env keeps the task seeds). ``perception="tags"`` makes the
     MuJoCo env report what its tag detector decodes (:class:`~occrl.envs.MujocoShelfEnv`);
-    ``shelf_height`` (MuJoCo only; None: the env's 0.30 m) sets its shelf's inside height.
+    ``shelf_height`` (MuJoCo only; None: the env's 0.30 m) sets its shelf's inside height, and
+    ``tag_layout`` (with ``perception="tags"``; None: the env's ``"fitted"``) its tags' sizes.
 
     Examples:
         >>> from occrl.baselines import ScriptedRetriever
@@ -200,6 +202,8 @@ def seeded_task_env(
     check_perception(perception, world)
     if shelf_height is not None and world != "mujoco":
         raise ValueError(f"shelf_height needs world='mujoco' (the 2D world has no height), got world={world!r}")
+    if tag_layout is not None and perception != "tags":
+        raise ValueError(f"tag_layout sizes the tags the detector reads: it needs perception='tags', got perception={perception!r}")
     env = make_env(
         batch_size=len(scenes),
         scenes=list(scenes),
@@ -211,6 +215,7 @@ def seeded_task_env(
         remembered_detections=remembered_detections,
         **({"perception": perception} if perception != "geometric" else {}),
         **({"shelf_height": shelf_height} if shelf_height is not None else {}),
+        **({"tag_layout": tag_layout} if tag_layout is not None else {}),
     )
     for p in primers:
         env.append_transform(p.clone() if hasattr(p, "clone") else p)
@@ -253,11 +258,12 @@ def run_episodes(
     on_rollout: Callable[[TensorDictBase], None] | None = None,
     perception: str = "geometric",
     shelf_height: float | None = None,
+    tag_layout: str | None = None,
 ) -> list[EpisodeResult]:
     """Run ``policy`` once on each scene (batches of ``batch_size`` worlds stepped together);
     ``replicate`` > 0 draws the decision maker's randomness anew (:func:`decision_seed`);
     ``remembered_detections`` and ``size`` make the env a network needs (``make_env``);
-    ``perception`` and ``shelf_height`` are the MuJoCo env's (:func:`seeded_task_env`).
+    ``perception``, ``shelf_height`` and ``tag_layout`` are the MuJoCo env's (:func:`seeded_task_env`).
     Diagnoses look inside through two hooks: ``on_env`` gets each batch's env before its
     roll-out (e.g. to hand a policy the worlds' true state: ``env.base_env.worlds``),
     ``on_rollout`` each batch's trajectory (batch, time) after it.
@@ -292,6 +298,7 @@ def run_episodes(
             remembered_detections,
             perception,
             shelf_height,
+            tag_layout,
         )
         if on_env is not None:
             on_env(env)

@@ -174,10 +174,11 @@ def _init_worker(method: str, weights, threads: int, settings: dict) -> None:
 
 
 def _run_chunk(args) -> list[EpisodeResult]:
-    stage, seeds, num_objects, noise, world, replicate, perception, shelf_height = args
+    stage, seeds, num_objects, noise, world, replicate, perception, shelf_height, tag_layout = args
     m = _WORKER["method"]
     options = {"perception": perception} if perception != "geometric" else {}
     options |= {"shelf_height": shelf_height} if shelf_height is not None else {}
+    options |= {"tag_layout": tag_layout} if tag_layout is not None else {}
     return m.run_episodes(task_scenes(stage, seeds, num_objects), seeds, noise, len(seeds), world=world, replicate=replicate, **options)
 
 
@@ -261,6 +262,7 @@ def run_tasks(
     perception: str = "geometric",
     shelf_height: float | None = None,
     remember_objects: bool = False,
+    tag_layout: str | None = None,
 ) -> list[EpisodeResult]:
     """Evaluate a named method on task seeds, in chunks of ``batch`` worlds spread over
     ``workers`` processes (``backend="local"``) or Ray actors (``backend="ray"``, a local runtime
@@ -272,7 +274,9 @@ def run_tasks(
     the decision maker's randomness drawn anew (:func:`~occrl.envs.episodes.decision_seed`; 0 is
     what every recorded result ran). ``perception="tags"`` (with ``world="mujoco"``) plans from what
     the tag detector decodes in the wrist camera's image instead of the geometric visibility rule;
-    ``shelf_height`` (with ``world="mujoco"``; None: 0.30 m) the MuJoCo shelf's inside height.
+    ``shelf_height`` (with ``world="mujoco"``; None: 0.30 m) the MuJoCo shelf's inside height;
+    ``tag_layout`` (with ``perception="tags"``; None: ``"fitted"``) the tags' sizes
+    (:data:`~occrl.envs.mujoco3d.tags.TAG_LAYOUTS`).
     ``progress``: show a progress bar with an ETA
     (``True``), none (``False``), or advance a ``tqdm`` bar the caller owns (a sweep's).
 
@@ -298,7 +302,13 @@ def run_tasks(
         from occrl.envs.mujoco3d.model import check_shelf_height
 
         check_shelf_height(shelf_height)
-    jobs = [(stage, c, num_objects, noise, world, replicate, perception, shelf_height) for c in chunks]
+    if tag_layout is not None:
+        if perception != "tags":
+            raise ValueError(f"tag_layout sizes the tags the detector reads: it needs perception='tags', got perception={perception!r}")
+        from occrl.envs.mujoco3d.tags import as_tag_layout
+
+        as_tag_layout(tag_layout)
+    jobs = [(stage, c, num_objects, noise, world, replicate, perception, shelf_height, tag_layout) for c in chunks]
     settings = dict(inference=inference, remember_objects=remember_objects)  # make_method's
     if backend == "ray":
         results = _run_tasks_ray(method, weights, jobs, max(1, workers), ray_address, bar, settings)

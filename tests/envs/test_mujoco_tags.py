@@ -18,7 +18,7 @@ from occrl.envs.detection_slots import DetectionSlots  # noqa: E402
 from occrl.envs.episodes import seeded_task_env, task_scenes  # noqa: E402
 from occrl.envs.mujoco3d.camera import gl_available  # noqa: E402
 from occrl.envs.mujoco3d.tag_perception import TagObserver, tag_catalogue  # noqa: E402
-from occrl.envs.mujoco3d.tags import MAX_TAG_SIZE, MIN_TAG_SIZE, tag_id, tag_placements  # noqa: E402
+from occrl.envs.mujoco3d.tags import MAX_TAG_SIZE, MIN_TAG_SIZE, TAG_LAYOUTS, TagLayout, tag_id, tag_placements  # noqa: E402
 from occrl.envs.mujoco3d.world import MujocoWorld  # noqa: E402
 from occrl.envs.mujoco3d.wrist_camera import WristCamera, WristCameraSettings  # noqa: E402
 from tests.helpers import scene  # noqa: E402
@@ -50,6 +50,53 @@ def test_tags_sit_on_every_face_wide_enough_with_ids_by_type():
         tag_id(74, 0)
     with pytest.raises(ValueError, match="one height per object"):
         tag_placements(s, np.array([0.12]))
+
+
+def test_a_tag_layout_sizes_the_tags_and_bad_layouts_are_refused():
+    box = [[-0.03, -0.02], [0.03, -0.02], [0.03, 0.02], [-0.03, 0.02]]  # faces of 6 and 4 cm
+    narrow = [[-0.006, -0.03], [0.006, -0.03], [0.006, 0.03], [-0.006, 0.03]]  # faces of 1.2 and 6 cm
+    s = Scene.from_objects(
+        [
+            {"vertices": box, "pose": (0.0, 0.2, 0.0), "is_target": True, "type_id": 5},
+            {"vertices": narrow, "pose": (0.15, 0.2, 0.0), "is_target": False, "type_id": 2},
+        ]
+    )
+    heights = np.array([0.12, 0.12])
+    fitted = [(t.type_id, t.face, round(t.size, 4)) for t in tag_placements(s, heights)]
+    small = [(t.type_id, t.face, round(t.size, 4)) for t in tag_placements(s, heights, TAG_LAYOUTS["at-most-3cm"])]
+    assert fitted == [
+        (5, 0, 0.0472),
+        (5, 1, 0.0312),
+        (5, 2, 0.0472),
+        (5, 3, 0.0312),
+        (2, 0, 0.0088),
+        (2, 1, 0.0472),
+        (2, 2, 0.0088),
+        (2, 3, 0.0472),
+    ]
+    assert small == [(5, 0, 0.03), (5, 1, 0.0288), (5, 2, 0.03), (5, 3, 0.0288), (2, 1, 0.03), (2, 3, 0.03)]  # none on a 1.2 cm face
+    for bad, match in (
+        (dict(min_size=0.05, max_size=0.03), "min_size <= max_size"),
+        (dict(max_size=float("nan")), "finite number"),
+        (dict(clearance=-0.001), "clearance must be in"),
+    ):
+        with pytest.raises(ValueError, match=match):
+            TagLayout(**bad)
+    with pytest.raises(ValueError, match="tag_layout must be a TagLayout or one of"):
+        MujocoShelfEnv(perception="tags", tag_layout="huge")
+    with pytest.raises(ValueError, match="give it with perception='tags'"):
+        MujocoShelfEnv(tag_layout="at-most-3cm")
+
+
+def test_an_env_with_another_tag_layout_wears_those_tags():
+    env = make_env(
+        batch_size=1, scenes=[TWO_IN_VIEW], seed=[0], world="mujoco", perception="tags", tag_layout="at-most-3cm", heatmap_target=False
+    )
+    env.reset()
+    sizes = [t.size for t in env.base_env.worlds[0].tags]
+    assert sizes and max(sizes) <= 0.03 + 1e-12 and min(sizes) >= 0.010
+    assert {e.tag_id: e.size for e in env.base_env.tag_observers[0].catalogue} == {t.tag_id: t.size for t in env.base_env.worlds[0].tags}
+    env.close()
 
 
 def test_tag_cards_change_neither_physics_nor_geometric_visibility():
@@ -206,6 +253,12 @@ def test_occrl_eval_passes_perception_through(tmp_path, capsys):
     assert main([*args, "--out", str(out)]) == 0
     result = json.loads(out.read_text())
     assert result["perception"] == "tags" and result["success_rate"] == 1.0  # the privileged script reaches its target
+    assert main([*args, "--tag-layout", "at-most-3cm", "--out", str(out)]) == 0
+    assert json.loads(out.read_text())["tag_layout"] == "at-most-3cm"
+    assert main([*args[:5], "--tag-layout", "at-most-3cm", "--tasks", "1"]) == 2  # no --perception tags
+    assert "--tag-layout sizes the tags" in capsys.readouterr().err
+    assert main([*args, "--remember-objects"]) == 2  # a hybrid planner's setting
+    assert "--remember-objects applies to a single hybrid planner" in capsys.readouterr().err
     # run_tasks hands it to run_episodes, which builds the tag env
     from occrl.baselines import ScriptedRetriever
     from occrl.envs.episodes import run_episodes

@@ -20,6 +20,7 @@ from torchrl.data import Bounded
 from occrl.envs import world_constants as C
 from occrl.envs.mujoco3d.camera import CameraConfig, gl_available, require_mujoco
 from occrl.envs.mujoco3d.model import OBJECT_HEIGHT_RANGE, SHELF_HEIGHT, check_shelf_height
+from occrl.envs.mujoco3d.tags import TagLayout, as_tag_layout
 from occrl.envs.mujoco3d.world import MujocoWorld
 from occrl.envs.mujoco3d.wrist_camera import WristCameraSettings
 from occrl.envs.scene import Scene
@@ -94,6 +95,10 @@ class MujocoShelfEnv(ShelfEnv):
             noise draw from a stream spawned from each world's seed: with no image noise (the
             default) a seed fixes the images; with image noise, a world's stream also moves on when
             another world of its batch resets, so seeded noisy images need ``batch_size=1``.
+        tag_layout: with ``perception="tags"``, how large the objects' tags are: a
+            :class:`~occrl.envs.mujoco3d.tags.TagLayout` or a name in
+            :data:`~occrl.envs.mujoco3d.tags.TAG_LAYOUTS` (``"fitted"``, the default: each tag as
+            wide as its face allows, 8 mm to 6 cm; ``"at-most-3cm"``: 1 to 3 cm).
 
     Raises:
         ImportError: mujoco or dm_control are missing (the message names the extra to install).
@@ -124,6 +129,7 @@ class MujocoShelfEnv(ShelfEnv):
         perception: str = "geometric",
         wrist_camera: WristCameraSettings | None = None,
         shelf_height: float = SHELF_HEIGHT,
+        tag_layout: str | TagLayout = "fitted",
     ) -> None:
         require_mujoco()
         self.shelf_height = check_shelf_height(shelf_height)
@@ -133,6 +139,9 @@ class MujocoShelfEnv(ShelfEnv):
             raise ValueError(f"perception must be one of {PERCEPTION_MODES}, got {perception!r}")
         if wrist_camera is not None and perception != "tags":
             raise ValueError("wrist_camera sets the tag detector's camera: give it with perception='tags'")
+        self.tag_layout = as_tag_layout(tag_layout)
+        if self.tag_layout != TagLayout() and perception != "tags":
+            raise ValueError("tag_layout sizes the tags the detector reads: give it with perception='tags'")
         if wrist_camera is not None and not isinstance(wrist_camera, WristCameraSettings):
             raise TypeError(f"wrist_camera must be a WristCameraSettings, got {type(wrist_camera).__name__}")
         self.perception = perception
@@ -211,7 +220,7 @@ class MujocoShelfEnv(ShelfEnv):
 
     # ------------------------------------------------------------------ ShelfEnv's world hooks
     def _new_world(self, i: int) -> MujocoWorld:
-        tags = self.perception == "tags"
+        tags = self.tag_layout if self.perception == "tags" else False
         world = MujocoWorld(
             self._next_scene(i),
             camera=self.camera,
@@ -223,7 +232,7 @@ class MujocoShelfEnv(ShelfEnv):
             tags=tags,
             shelf_height=self.shelf_height,
         )
-        if tags:
+        if tags is not False:
             from occrl.envs.detection_slots import DetectionSlots
             from occrl.envs.mujoco3d.tag_perception import TagObserver
 

@@ -3,10 +3,13 @@
 Each object carries one AprilTag (36h11 family, :mod:`occrl.perception`'s default dictionary) on every side
 face wide enough for one, centred on the face at the wrist camera's height: the faces the gripper
 camera sees (it sits below every object's top, so top faces are never in view). A tag's black
-square measures ``min(MAX_TAG_SIZE, what the face holds)`` and is printed with a white border of
-one cell (an eighth of the square) on a 0.2 mm card set into the face, its print 0.05 mm out of it
-(the catalogue puts the tag on the face: a 0.05 mm offset, far below what the camera resolves). A face narrower
-than a :data:`MIN_TAG_SIZE` tag with its border and :data:`FACE_CLEARANCE` either side carries none.
+square is as wide as the face holds, within the :class:`TagLayout`'s sizes (by default 8 mm to
+:data:`MAX_TAG_SIZE`), and is printed with a white border of one cell (an eighth of the square) on
+a 0.2 mm card set into the face, its print 0.05 mm out of it (the catalogue puts the tag on the
+face: a 0.05 mm offset, far below what the camera resolves). A face narrower than the smallest tag
+with its border and the layout's clearance either side carries none. :data:`TAG_LAYOUTS` names
+the layouts ``make_env(world="mujoco", perception="tags", tag_layout=...)`` and ``occrl eval
+--tag-layout`` take.
 
 Tag ids follow the object's type: tag ``(type_id - 1) * 8 + face``, where face ``k`` runs from
 vertex ``k`` to vertex ``k + 1`` of the type's counter-clockwise polygon, so a type always wears
@@ -39,6 +42,9 @@ __all__ = [
     "TAG_CENTRE_Z",
     "TAG_GROUP",
     "MAX_TAGGED_TYPE",
+    "TagLayout",
+    "TAG_LAYOUTS",
+    "as_tag_layout",
     "TagPlacement",
     "tag_id",
     "tag_placements",
@@ -55,6 +61,61 @@ CARD_STANDOFF = 0.00005  # the print stands this far out of the face (no depth f
 TAG_GROUP = 3  # geom group of the tag cards: drawn in the RGB image only
 MAX_TAGGED_TYPE = 587 // C.MAX_VERTICES  # 73: the ids of every face of types 1..73 are in the family
 CELL_PIXELS = 12  # texture pixels per cell
+
+
+@dataclass(frozen=True)
+class TagLayout:
+    """How large the objects' tags are: each face carries the largest tag it holds with its
+    border and ``clearance`` either side, at most ``max_size``; a face that cannot hold a
+    ``min_size`` tag carries none. Sizes are the black square's side in metres.
+
+    Examples:
+        >>> from occrl.envs.mujoco3d.tags import TAG_LAYOUTS, TagLayout
+        >>> TAG_LAYOUTS["fitted"] == TagLayout(), TAG_LAYOUTS["at-most-3cm"].max_size
+        (True, 0.03)
+        >>> TagLayout(min_size=0.05, max_size=0.03)
+        Traceback (most recent call last):
+            ...
+        ValueError: a TagLayout needs 0.004 <= min_size <= max_size <= 0.1 m, got min_size=0.05, max_size=0.03
+    """
+
+    min_size: float = MIN_TAG_SIZE
+    max_size: float = MAX_TAG_SIZE
+    clearance: float = FACE_CLEARANCE
+
+    def __post_init__(self) -> None:
+        for name in ("min_size", "max_size", "clearance"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise ValueError(f"TagLayout.{name} must be a finite number of metres, got {value!r}")
+        if not 0.004 <= self.min_size <= self.max_size <= 0.1:
+            raise ValueError(
+                f"a TagLayout needs 0.004 <= min_size <= max_size <= 0.1 m, got min_size={self.min_size}, max_size={self.max_size}"
+            )
+        if not 0.0 <= self.clearance <= 0.01:
+            raise ValueError(f"TagLayout.clearance must be in [0, 0.01] m, got {self.clearance}")
+
+    def tag_size(self, face_length: float) -> float | None:
+        """The side of the tag a face of this length carries (None: too narrow for any)."""
+        size = (face_length - 2.0 * self.clearance) / (1.0 + 2.0 * BORDER_CELLS / 8.0)
+        if size < self.min_size:
+            return None
+        return min(size, self.max_size)
+
+
+TAG_LAYOUTS = {
+    "fitted": TagLayout(),  # each tag as wide as its face allows, 8 mm to 6 cm
+    "at-most-3cm": TagLayout(min_size=0.010, max_size=0.030, clearance=0.002),  # one common printed size, no small ones
+}
+
+
+def as_tag_layout(layout: str | TagLayout) -> TagLayout:
+    """A :class:`TagLayout`, or the one of :data:`TAG_LAYOUTS` named ``layout``."""
+    if isinstance(layout, TagLayout):
+        return layout
+    if isinstance(layout, str) and layout in TAG_LAYOUTS:
+        return TAG_LAYOUTS[layout]
+    raise ValueError(f"tag_layout must be a TagLayout or one of {sorted(TAG_LAYOUTS)}, got {layout!r}")
 
 
 @dataclass(frozen=True)
@@ -95,16 +156,8 @@ def tag_id(type_id: int, face: int) -> int:
     return (int(type_id) - 1) * C.MAX_VERTICES + int(face)
 
 
-def face_tag_size(face_length: float) -> float | None:
-    """The side of the tag a face of this length carries (None: too narrow for any)."""
-    size = (face_length - 2.0 * FACE_CLEARANCE) / (1.0 + 2.0 * BORDER_CELLS / 8.0)
-    if size < MIN_TAG_SIZE:
-        return None
-    return min(size, MAX_TAG_SIZE)
-
-
-def tag_placements(scene: Scene, heights: np.ndarray) -> list[TagPlacement]:
-    """Every tag of a scene's objects (``heights``: each object's height in m).
+def tag_placements(scene: Scene, heights: np.ndarray, layout: TagLayout = TagLayout()) -> list[TagPlacement]:
+    """Every tag of a scene's objects (``heights``: each object's height in m), sized by ``layout``.
 
     Examples:
         >>> import numpy as np
@@ -117,6 +170,8 @@ def tag_placements(scene: Scene, heights: np.ndarray) -> list[TagPlacement]:
         [(8, 0, 0.0472), (9, 1, 0.0312), (10, 2, 0.0472), (11, 3, 0.0312)]
         >>> tags[0].up, tags[0].tag_to_object[:3, 3].round(5).tolist()  # 7 cm up: 1 cm above mid-height, on the front face
         (0.07, [0.0, -0.02005, 0.01])
+        >>> [round(t.size, 4) for t in tag_placements(scene, np.array([0.12]), TAG_LAYOUTS["at-most-3cm"])]  # 1 to 3 cm
+        [0.03, 0.0288, 0.03, 0.0288]
     """
     heights = np.asarray(heights, dtype=float).reshape(-1)
     if len(heights) != len(scene.objects):
@@ -127,7 +182,7 @@ def tag_placements(scene: Scene, heights: np.ndarray) -> list[TagPlacement]:
         for k in range(len(v)):
             a, b = v[k], v[(k + 1) % len(v)]
             length = float(np.hypot(*(b - a)))
-            size = face_tag_size(length)
+            size = layout.tag_size(length)
             if size is None:
                 continue
             card = size * (1.0 + 2.0 * BORDER_CELLS / 8.0)
