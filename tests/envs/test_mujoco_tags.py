@@ -203,6 +203,23 @@ def test_lighting_and_image_noise_are_seeded():
     assert (a == b).all()
 
 
+def test_a_frames_noise_follows_the_world_state_alone():
+    # two cameras on two copies of one world: one renders its frames more often than the other
+    s = task_scenes(2, [10_000_001], (1, 10))[0]
+    worlds = [MujocoWorld(s, tags=True) for _ in range(2)]
+    cameras = [WristCamera(w, WristCameraSettings(image_noise=4.0), np.random.default_rng(5)) for w in worlds]
+    first = cameras[0].rgb()
+    assert np.array_equal(first, cameras[0].rgb())  # the same frame again: the same noise
+    for _ in range(3):
+        cameras[1].rgb()
+    for w in worlds:
+        w.step(np.array([1.0, 0.0, 0.0, -1.0]))
+    a, b = (c.rgb() for c in cameras)
+    assert np.array_equal(a, b) and not np.array_equal(a, first)
+    for c in cameras:
+        c.close()
+
+
 def test_bad_perception_settings_are_refused():
     with pytest.raises(ValueError, match="perception must be one of"):
         MujocoShelfEnv(perception="lidar")

@@ -92,9 +92,8 @@ class MujocoShelfEnv(ShelfEnv):
         wrist_camera: with ``perception="tags"``, the RGB camera's image size, field of view,
             lighting and image noise (:class:`~occrl.envs.mujoco3d.wrist_camera.WristCameraSettings`;
             640 x 480, 70 degrees across, nominal light, no noise by default). The lighting and
-            noise draw from a stream spawned from each world's seed: with no image noise (the
-            default) a seed fixes the images; with image noise, a world's stream also moves on when
-            another world of its batch resets, so seeded noisy images need ``batch_size=1``.
+            noise draw from a stream spawned from each world's seed, a frame's noise from that
+            stream's seed and the frame's simulated time: a seed fixes the images, in any batch.
         tag_layout: with ``perception="tags"``, how large the objects' tags are: a
             :class:`~occrl.envs.mujoco3d.tags.TagLayout` or a name in
             :data:`~occrl.envs.mujoco3d.tags.TAG_LAYOUTS` (``"fitted"``, the default: each tag as

@@ -32,7 +32,8 @@ class WristCameraSettings:
     ``lighting``: each episode scales the lights' intensities by factors drawn uniformly in
     [1 - lighting, 1 + lighting] and tilts the overhead light by up to ``lighting`` x 45 degrees.
     ``image_noise``: standard deviation of Gaussian pixel noise (grey levels, 0-255), drawn anew
-    for every frame. Both 0 by default (the nominal, noise-free image).
+    for every frame (from the episode's stream and the frame's simulated time: the same world state
+    always shows the same noise). Both 0 by default (the nominal, noise-free image).
 
     Examples:
         >>> from occrl.envs.mujoco3d.wrist_camera import WristCameraSettings
@@ -83,9 +84,10 @@ class WristCamera(RendererOwner):
     """RGB frames of a :class:`~occrl.envs.mujoco3d.world.MujocoWorld`'s wrist camera, tags drawn.
 
     The world's ``"wrist"`` camera must have this camera's vertical field of view (the env builds
-    both from the same 70 degrees across and a 4:3 image). ``rng`` draws the episode's lighting once
-    here and each frame's noise in :meth:`rgb` (a stream of its own: the world's physics noise is
-    not touched).
+    both from the same 70 degrees across and a 4:3 image). ``rng`` draws the episode's lighting and
+    the seed of its image noise once, here (a stream of its own: the world's physics noise is not
+    touched); a frame's noise is drawn from that seed and the world's simulated time, so rendering
+    a frame again, or more often, changes no other frame.
     """
 
     def __init__(self, world, settings: WristCameraSettings = WristCameraSettings(), rng: np.random.Generator | None = None) -> None:
@@ -103,6 +105,7 @@ class WristCamera(RendererOwner):
         self._option.geomgroup[TAG_GROUP] = 1
         if settings.lighting > 0.0:
             self._randomise_lighting(m)
+        self._noise_seed = int(self.rng.integers(2**63)) if settings.image_noise > 0.0 else 0
         self.renderer = new_renderer(m, settings.height, settings.width)
 
     def _randomise_lighting(self, m) -> None:
@@ -119,7 +122,8 @@ class WristCamera(RendererOwner):
         r.update_scene(self.world.data, camera=self.world.camera_id, scene_option=self._option)
         image = r.render()
         if self.settings.image_noise > 0.0:
-            noisy = image + self.rng.normal(0.0, self.settings.image_noise, size=image.shape)
+            frame = np.random.default_rng([self._noise_seed, round(self.world.data.time * 1e6)])  # microseconds of simulated time
+            noisy = image + frame.normal(0.0, self.settings.image_noise, size=image.shape)
             image = np.clip(np.rint(noisy), 0, 255).astype(np.uint8)
         return image.copy()
 
