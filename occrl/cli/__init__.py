@@ -283,12 +283,6 @@ def add_eval(sub: argparse._SubParsersAction) -> None:
         "rounding, so a few decisions may differ; pip install onnx onnxruntime)",
     )
     e.add_argument(
-        "--remember-objects",
-        action="store_true",
-        help="hybrid planners: plan in worlds that also hold the objects detected earlier in the episode and not now, "
-        "where they were last seen (the network's image is unchanged)",
-    )
-    e.add_argument(
         "--replicate",
         type=NON_NEGATIVE,
         default=0,

@@ -166,20 +166,13 @@ def _stop_ray_if_used(args: argparse.Namespace) -> None:
 
 
 def run_eval(args: argparse.Namespace) -> int:
-    from occrl.eval.methods import METHODS, PRIVILEGED, hybrid_setting, is_method, is_planner, method_network
+    from occrl.eval.methods import METHODS, PRIVILEGED, is_method, is_planner, method_network
     from occrl.envs.episodes import EPISODE_TIMING
     from occrl.eval.runner import run_tasks, summarize
 
     if args.inference != "torch" and (args.sweep or not (args.method or "").startswith("hybrid")):
         print(
             f"--inference applies to a single hybrid method (--method hybrid-...), not to {'a sweep' if args.sweep else repr(args.method)}",
-            file=sys.stderr,
-        )
-        return 2
-    if args.remember_objects and (args.sweep or hybrid_setting(args.method or "") is None):
-        print(
-            f"--remember-objects applies to a single hybrid planner (--method hybrid-MxH or hybrid-lim-MxH), not to "
-            f"{'a sweep' if args.sweep else repr(args.method)}",
             file=sys.stderr,
         )
         return 2
@@ -289,7 +282,6 @@ def run_eval(args: argparse.Namespace) -> int:
             replicate=args.replicate,
             perception=args.perception,
             shelf_height=args.shelf_height,
-            remember_objects=args.remember_objects,
             tag_layout=args.tag_layout,
         )
     finally:
@@ -306,7 +298,6 @@ def run_eval(args: argparse.Namespace) -> int:
         **({"tag_layout": args.tag_layout} if args.tag_layout is not None else {}),
         "first_seed": args.seed,
         **({"inference": args.inference} if args.inference != "torch" else {}),
-        **({"remember_objects": True} if args.remember_objects else {}),
         **({"replicate": args.replicate} if args.replicate else {}),
         # times per task: each task's own episode (occrl >= 0.3.0), with `batch` tasks run at a time
         "timing": EPISODE_TIMING,

@@ -193,16 +193,13 @@ def make_method(
     weights: str | Path | None = None,
     seed: int = 0,
     inference: str = "torch",
-    remember_objects: bool = False,
 ) -> Method:
     """``hybrid-MxH`` / ``hybrid-lim-MxH`` (planner on the full net; the papers' are 2x2, 4x4, 6x6 and lim-4x4), ``greedy`` / ``stochastic``
     (net without heat-map head: mean / sampled action), ``stochastic-gen`` (full net, sampled),
     ``hierarchical`` (Alg. 3 with OMPL; literal Search), ``hybrid-ompl-MxH`` (beyond the papers: the
     hybrid planner with the hierarchical planner's next actions as one more roll-out per root), ``scripted`` and ``clearing`` (privileged). ``weights``
     overrides the shipped net. ``inference`` is how the hybrid planners' roll-outs call the
-    network (``"torch"`` or ``"onnxruntime"``; :class:`~occrl.planners.HybridPlanner`);
-    ``remember_objects`` makes a hybrid-MxH / hybrid-lim-MxH planner plan in worlds that also hold
-    the objects detected earlier in the episode (:class:`~occrl.planners.HybridPlanner`).
+    network (``"torch"`` or ``"onnxruntime"``; :class:`~occrl.planners.HybridPlanner`).
 
     Examples:
         >>> from occrl.eval.methods import make_method
@@ -217,8 +214,6 @@ def make_method(
     hybrid, ompl_hybrid = hybrid_setting(name), ompl_hybrid_setting(name)
     if inference != "torch" and hybrid is None and ompl_hybrid is None:
         raise ValueError(f"inference is a hybrid planner setting; {name!r} does not take it")
-    if remember_objects and hybrid is None:
-        raise ValueError(f"remember_objects is a hybrid-MxH / hybrid-lim-MxH planner setting; {name!r} does not take it")
     if ompl_hybrid is not None:
         from occrl.baselines.hybrid_ompl import HybridOMPLPlanner
 
@@ -237,7 +232,7 @@ def make_method(
         net = _net("occnet", weights)
         return Method(
             name,
-            HybridPlanner(net, m=m, h=h, limited=limited, seed=seed, inference=inference, remember_objects=remember_objects),
+            HybridPlanner(net, m=m, h=h, limited=limited, seed=seed, inference=inference),
             [net.make_primer()],
             network=_network_record("occnet", weights),
             image_size=net.config.image_size,

@@ -24,7 +24,7 @@ from tqdm import tqdm
 from occrl.distributed import WorkerDiedError, is_worker_death, require_ray, start_ray
 from occrl.envs import world_constants as C
 from occrl.envs.episodes import EpisodeResult, check_perception, check_replicate, run_episodes, seeded_task_env, task_scenes  # noqa: F401 (re-exported)
-from occrl.eval.methods import hybrid_setting, make_method
+from occrl.eval.methods import make_method
 
 # EpisodeResult, run_episodes, task_scenes, seeded_task_env live in occrl.envs.episodes (importable here too)
 __all__ = ["rollout_tasks", "run_tasks", "summarize", "wilson_interval", "mcnemar_p", "exclusive_wins", "EVAL_SEED_BASE"]
@@ -118,7 +118,7 @@ def rollout_tasks(
     finishes starts a new episode.
 
     Examples:
-        >>> from occrl.eval.methods import hybrid_setting, make_method
+        >>> from occrl.eval.methods import make_method
         >>> from occrl.eval.runner import rollout_tasks
         >>> td = rollout_tasks(make_method("scripted"), 1, [3, 4], steps=5)
         >>> td.batch_size, ("privileged", "target_pose") in td.keys(True)
@@ -261,7 +261,6 @@ def run_tasks(
     replicate: int = 0,
     perception: str = "geometric",
     shelf_height: float | None = None,
-    remember_objects: bool = False,
     tag_layout: str | None = None,
 ) -> list[EpisodeResult]:
     """Evaluate a named method on task seeds, in chunks of ``batch`` worlds spread over
@@ -269,8 +268,8 @@ def run_tasks(
     or the cluster at ``ray_address``). Results do not depend on ``workers`` or ``backend``
     (per-task wall time aside). ``world="mujoco"`` executes in the 3D MuJoCo env (the planners
     still plan in pymunk, recreated from its detections); ``num_objects=(low, high)`` draws each
-    task's object count from its seed. ``inference`` and ``remember_objects`` go to the hybrid
-    planners (:func:`~occrl.eval.methods.make_method`). ``replicate`` > 0 runs the same tasks with
+    task's object count from its seed. ``inference`` goes to the hybrid planners
+    (:func:`~occrl.eval.methods.make_method`). ``replicate`` > 0 runs the same tasks with
     the decision maker's randomness drawn anew (:func:`~occrl.envs.episodes.decision_seed`; 0 is
     what every recorded result ran). ``perception="tags"`` (with ``world="mujoco"``) plans from what
     the tag detector decodes in the wrist camera's image instead of the geometric visibility rule;
@@ -290,8 +289,6 @@ def run_tasks(
         raise ValueError(f"backend must be 'local' or 'ray', got {backend!r}")
     check_replicate(replicate)
     check_perception(perception, world)
-    if remember_objects and hybrid_setting(method) is None:
-        raise ValueError(f"remember_objects is a hybrid-MxH / hybrid-lim-MxH planner setting; {method!r} does not take it")
     chunks = [list(seeds[i : i + batch]) for i in range(0, len(seeds), batch)]
     own_bar = not hasattr(progress, "update")
     bar = tqdm(total=len(seeds), desc=f"{method} stage {stage} noise {noise}", unit="task", disable=not progress) if own_bar else progress
@@ -309,7 +306,7 @@ def run_tasks(
 
         as_tag_layout(tag_layout)
     jobs = [(stage, c, num_objects, noise, world, replicate, perception, shelf_height, tag_layout) for c in chunks]
-    settings = dict(inference=inference, remember_objects=remember_objects)  # make_method's
+    settings = dict(inference=inference)  # make_method's
     if backend == "ray":
         results = _run_tasks_ray(method, weights, jobs, max(1, workers), ray_address, bar, settings)
     elif workers <= 1:

@@ -24,15 +24,12 @@ from tensordict.nn import TensorDictModuleBase
 
 from occrl.envs import world_constants as C
 from occrl.envs.perception import OBSERVATION_KEYS
-from occrl.envs.remembered import RememberedDetections
 from occrl.modules.occnet import OccNet, require_recurrent_state
 from occrl.planners.recreate import WorldPool, recreate
 from occrl.planners.rhp import INFERENCE_BACKENDS, NetworkStepper, RHPResult, noise_dim, rhp_batched, rhp_sequential
 from occrl.planners.states import Root, generate_states
 
 __all__ = ["HybridPlanner", "select_root", "Decision"]
-
-PLANNING_KEYS = ("is_init", *OBSERVATION_KEYS)  # what the recreated worlds and their memory read
 
 
 def select_root(weights: np.ndarray, returns: np.ndarray) -> int:
@@ -100,13 +97,6 @@ class HybridPlanner(TensorDictModuleBase):
             world at a time up to float rounding (the larger network batches round differently,
             about 1e-6), so off by default: evaluations stay bit for bit as recorded. The
             trainer's planner teachers use it.
-        remember_objects: plan in worlds that also hold the objects detected earlier in the
-            episode and not detected now, where they were last seen, while none of the objects
-            detected now or the gripper overlaps them (:class:`~occrl.envs.remembered.RememberedDetections`'
-            rules); the target aside, which the heat-map's roots place while it is out of sight.
-            The memory feeds the recreated worlds only: the network still reads the
-            observation's image, as it was trained. Off by default (the papers' planner knows what
-            the camera shows now).
 
     Examples:
         >>> import torch
@@ -132,7 +122,6 @@ class HybridPlanner(TensorDictModuleBase):
         batched: bool = True,
         inference: str = "torch",
         batch_worlds: bool = False,
-        remember_objects: bool = False,
     ) -> None:
         super().__init__()
         if not isinstance(net, OccNet):
@@ -161,10 +150,6 @@ class HybridPlanner(TensorDictModuleBase):
             raise ValueError(f"inference must be one of {INFERENCE_BACKENDS}, got {inference!r}")
         self.inference = inference
         self.batch_worlds = bool(batch_worlds)
-        if not isinstance(remember_objects, bool):
-            raise TypeError(f"remember_objects must be a bool, got {remember_objects!r}")
-        self.remember_objects = remember_objects
-        self.memory = RememberedDetections()  # per world of the batch; used with remember_objects
         self.stepper = NetworkStepper(self.net, backend=inference)
         self.decisions: list[Decision] = []
         self.in_keys = ["pixels", "is_init", "recurrent_state_h", "recurrent_state_c", *OBSERVATION_KEYS]
@@ -195,8 +180,6 @@ class HybridPlanner(TensorDictModuleBase):
         )
         heatmap = torch.sigmoid(self.net.heatmap_head.module[0].module(belief[:, -1]))  # "belief" -> "heatmap_logits"
         heat = heatmap[:, 0].numpy()
-        if self.remember_objects:
-            flat = self.remembered(flat)
         if self.batch_worlds and self.batched and flat.shape[0] > 1:  # every world's roll-outs in one batched RHP
             decisions = self.decide_many([flat[b] for b in range(flat.shape[0])], heat, (hidden_h, hidden_c))
         else:
@@ -208,16 +191,6 @@ class HybridPlanner(TensorDictModuleBase):
             value = value.transpose(0, 1)  # as the tensordict stores it: (B, layers, H)
             tensordict.set(key, value.reshape(*tensordict.shape, *value.shape[1:]))
         return tensordict
-
-    def remembered(self, flat: TensorDictBase) -> TensorDictBase:
-        """A copy of the observations (batch ``(B,)``) whose undetected slots hold the objects
-        remembered from earlier detections, the target aside: a target out of sight is left to
-        the heat-map's roots (a remembered pose that has gone stale would hold every root)."""
-        planning = self.memory(flat.select(*PLANNING_KEYS).clone())
-        objects = planning.get("objects")
-        target = objects.get("type_id") == planning.get("target_type").reshape(-1, 1)
-        objects.set("detected", objects.get("detected") & ~(objects.get("remembered") & target))
-        return planning
 
     def decide(self, obs: TensorDictBase, heatmap: np.ndarray, hidden) -> Decision:
         """One planning step for one world (observation without batch dims)."""

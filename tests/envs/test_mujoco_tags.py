@@ -274,8 +274,6 @@ def test_occrl_eval_passes_perception_through(tmp_path, capsys):
     assert json.loads(out.read_text())["tag_layout"] == "at-most-3cm"
     assert main([*args[:5], "--tag-layout", "at-most-3cm", "--tasks", "1"]) == 2  # no --perception tags
     assert "--tag-layout sizes the tags" in capsys.readouterr().err
-    assert main([*args, "--remember-objects"]) == 2  # a hybrid planner's setting
-    assert "--remember-objects applies to a single hybrid planner" in capsys.readouterr().err
     # run_tasks hands it to run_episodes, which builds the tag env
     from occrl.baselines import ScriptedRetriever
     from occrl.envs.episodes import run_episodes
