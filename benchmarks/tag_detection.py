@@ -24,7 +24,8 @@ between estimate and truth) in the camera frame, for
 and the time per frame (one thread) to decode (the tag's corners) and to decode and estimate the
 pose. A frame where the tag is not decoded counts as missed.
 
-``--planar``: occrl's whole path instead, ``TagDetector.detect`` (refine subpix and edges): a 4 x 4 cm
+``--planar``: occrl's whole path instead, ``TagDetector.detect`` (the pose from the tag's own pose with
+subpix and with edge-fitted corners, and the default: edge-fitted corners and the planar fit): a 4 x 4 cm
 box with one 3 cm tag on a side (its centre 5 cm up) stands on the shelf floor, its tagged face
 ``--frames`` times at each distance from the camera and turned each viewing angle away from it, at a
 random bearing in view, seen by the wrist camera (7 cm above the floor, looking along the shelf's
@@ -107,7 +108,11 @@ def planar(args: argparse.Namespace) -> None:
             ]
         }
     )
-    detectors = {refine: TagDetector(camera, catalogue, refine=refine) for refine in ("subpix", "edges")}
+    detectors = {
+        "subpix, tag pose": TagDetector(camera, catalogue, refine="subpix", planar_fit=False),
+        "edges, tag pose": TagDetector(camera, catalogue, refine="edges", planar_fit=False),
+        "edges, planar fit (default)": TagDetector(camera, catalogue),
+    }
     gripper = gripper_pose_matrix(0.0, 0.0, 0.0, z=0.045)
     rng = np.random.default_rng(args.seed)
     found: dict[str, list[dict]] = {r: [] for r in detectors}
