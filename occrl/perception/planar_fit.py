@@ -100,13 +100,16 @@ def fit_planar_pose(
     for _ in range(MAX_ITERATIONS):
         normal, gradient = jac.T @ jac, jac.T @ r
         while True:
-            step = -np.linalg.solve(normal + damping * np.diag(np.diag(normal) + 1e-12), gradient)
+            try:
+                step = -np.linalg.solve(normal + damping * np.diag(np.diag(normal) + 1e-12), gradient)
+            except np.linalg.LinAlgError:  # degenerate corners (all on one line of sight): keep the pose so far
+                step = np.zeros(3)
             r_trial = residual(p + step)
             cost_trial = float(r_trial @ r_trial)
             if cost_trial <= cost or damping > 1e6:
                 break
             damping *= 10.0
-        if cost_trial > cost:
+        if not cost_trial <= cost:  # no step lowers the error (a NaN one neither)
             break
         p = p + step
         cost = cost_trial
