@@ -25,7 +25,9 @@ GRID_COLUMNS = [(1, 0.0), (2, 0.0), (3, 0.0), (1, 0.15), (2, 0.15), (3, 0.15)]
 
 def row(d: dict) -> str:
     lo, hi = d["success_ci95"]
-    where = f"{d.get('world', 'pymunk')}" + (f" ({d['perception']})" if d.get("perception") else "")
+    seen = ", ".join(str(d[k]) for k in ("perception", "tag_layout") if d.get(k))
+    where = f"{d.get('world', 'pymunk')}" + (f" ({seen})" if seen else "")
+    where += f", shelf {d['shelf_height']} m" if d.get("shelf_height") else ""
     where += f", stage {d['stage']}" + (f", objects {d['objects']}" if d.get("objects") else "")
     return (
         f"| {d['method']} | {Path(str(d['network'])).name if d['network'] else '-'} | {where} | noise {d['noise']} | {d['tasks']} | "

@@ -58,6 +58,17 @@ def test_perception_identity_passes_on_itself_and_fails_on_a_changed_render(tmp_
     assert proc.returncode == 1 and "differs" in proc.stdout
 
 
+def test_results_table_names_the_world_perception_tag_layout_and_shelf():
+    import runpy
+
+    row = runpy.run_path(str(ROOT / "scripts/results_table.py"))["row"]
+    d = {"method": "hybrid-4x4", "network": "occnet-selfimit", "stage": 2, "objects": "1-8", "noise": 0.0, "tasks": 200}
+    d |= {"success_rate": 0.8, "success_ci95": [0.74, 0.85], "dropped": 15, "mean_actions": 19.9, "mean_seconds": 5.1}
+    assert "| pymunk, stage 2, objects 1-8 |" in row(d)
+    d |= {"world": "mujoco", "perception": "tags", "tag_layout": "at-most-3cm", "shelf_height": 0.4}
+    assert "| mujoco (tags, at-most-3cm), shelf 0.4 m, stage 2, objects 1-8 |" in row(d)
+
+
 @pytest.mark.integration
 def test_results_table_compares_two_runs_task_by_task(tmp_path):
     a = _result(tmp_path / "a.json", "hybrid-4x4", 2, [True, True, True, False])
