@@ -1,6 +1,7 @@
 """The tools behind the docs' tables and figures (scripts/) run and report what they say."""
 
 import json
+import os
 import shutil
 import subprocess
 import sys
@@ -190,3 +191,24 @@ def test_episode_film_films_the_evaluations_episode(tmp_path):
         cwd=ROOT,
     )
     assert bad.returncode != 0 and "--out must end in .png" in bad.stderr
+
+
+@pytest.mark.integration
+def test_tag_target_recall_replays_the_lost_tasks_and_counts_the_target(tmp_path):
+    pytest.importorskip("mujoco")
+    pytest.importorskip("cv2")
+    run = {"method": "scripted", "network": None, "stage": 2, "objects": "1", "world": "mujoco", "perception": "tags"}
+    tags, reference = tmp_path / "tags.json", tmp_path / "reference.json"
+    tags.write_text(json.dumps(run | {"episodes": [{"seed": 10_000_000, "success": False}, {"seed": 10_000_001, "success": False}]}))
+    reference.write_text(json.dumps(run | {"episodes": [{"seed": 10_000_000, "success": True}, {"seed": 10_000_001, "success": False}]}))
+    out = subprocess.run(
+        [sys.executable, "scripts/tag_target_recall.py", str(tags), str(reference)],
+        capture_output=True,
+        text=True,
+        check=True,
+        cwd=ROOT,
+        env={**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")},
+    ).stdout
+    assert out.splitlines()[0].startswith("1 tasks only")
+    assert "10000000 (" in out and "10000001" not in out  # only the task the reference alone solved
+    assert "target in view in" in out  # one object: the target, in view at the start
