@@ -21,6 +21,7 @@ import numpy as np
 
 from occrl.envs.episodes import task_scenes
 from occrl.eval.methods import make_method
+from occrl.pretrained import weights_file
 
 
 def parse_objects(text: str | None):
@@ -40,7 +41,7 @@ def main() -> None:
         raise SystemExit(f"{args.tags} is not a MuJoCo run through the tags (perception {run.get('perception')!r})")
     reference = {e["seed"]: e for e in json.load(open(args.reference))["episodes"]}
     seeds = [e["seed"] for e in run["episodes"] if not e["success"] and reference.get(e["seed"], {}).get("success")]
-    method = make_method(run["method"], run["network"])
+    method = make_method(run["method"], weights_file(run["network"]) if run["network"] else None)
     options = {k: run[k] for k in ("shelf_height", "tag_layout") if run.get(k) is not None}
     print(f"{len(seeds)} tasks only {args.reference} solved; per task: target in view / decoded then, all objects in view / decoded then")
     totals = np.zeros(4, dtype=np.int64)
