@@ -22,6 +22,7 @@ disagreeing).
 
     MUJOCO_GL=egl python -m benchmarks.mujoco_tags --scenes 40
     MUJOCO_GL=egl python -m benchmarks.mujoco_tags --scenes 40 --lighting 0.4 --image-noise 3 --out tags_noisy.json
+    MUJOCO_GL=egl python -m benchmarks.mujoco_tags --scenes 40 --refine subpix --tag-poses   # other detector settings
 """
 
 from __future__ import annotations
@@ -38,6 +39,8 @@ from occrl.envs.episodes import task_scenes
 from occrl.envs.mujoco3d.tag_perception import TagObserver
 from occrl.envs.mujoco3d.world import MujocoWorld
 from occrl.envs.mujoco3d.wrist_camera import WristCameraSettings
+from occrl.perception import TagDetector
+from occrl.perception.detector import REFINE_METHODS
 from occrl.perception.frames import angle_difference
 
 DISTANCE_BINS = (0.0, 0.15, 0.25, 0.35, math.inf)  # m
@@ -124,7 +127,7 @@ def miss_cause(world, observer, k: int) -> str:
     return "not decoded"
 
 
-def measure(scenes: int, views: int, settings: WristCameraSettings, seed: int) -> dict:
+def measure(scenes: int, views: int, settings: WristCameraSettings, seed: int, refine: str = "edges", planar_fit: bool = True) -> dict:
     import cv2
 
     cv2.setNumThreads(1)
@@ -137,6 +140,7 @@ def measure(scenes: int, views: int, settings: WristCameraSettings, seed: int) -
     for s, scene in zip(seeds, task_scenes(2, seeds, (1, 10))):
         world = MujocoWorld(scene, tags=True)
         observer = TagObserver(world, settings, np.random.default_rng([seed, s]))
+        observer.detector = TagDetector(observer.calibration, observer.catalogue, refine=refine, planar_fit=planar_fit)
         for pose in view_poses(scene, views, rng):
             place_gripper(world, pose)
             t = time.perf_counter()
@@ -238,14 +242,19 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--lighting", type=float, default=0.0, help="light randomisation (WristCameraSettings.lighting)")
     parser.add_argument("--image-noise", type=float, default=0.0, help="pixel noise, grey levels (WristCameraSettings.image_noise)")
     parser.add_argument("--seed", type=int, default=0, help="seeds the views and the images' randomisation")
+    parser.add_argument("--refine", choices=REFINE_METHODS, default="edges", help="the detector's corner refinement (TagDetector's refine)")
+    parser.add_argument(
+        "--tag-poses", action="store_true", help="each object's pose from its tags' own poses (TagDetector(planar_fit=False))"
+    )
     parser.add_argument("--out", default=None, help="write the result as JSON here")
     args = parser.parse_args(argv)
     if args.scenes < 1 or args.views < 1:
         parser.error("--scenes and --views must be at least 1")
     settings = WristCameraSettings(lighting=args.lighting, image_noise=args.image_noise)
-    result = measure(args.scenes, args.views, settings, args.seed)
+    result = measure(args.scenes, args.views, settings, args.seed, args.refine, not args.tag_poses)
+    detector = f" --refine {args.refine}" + (" --tag-poses" if args.tag_poses else "")
     result = {
-        "command": f"python -m benchmarks.mujoco_tags --scenes {args.scenes} --views {args.views} --lighting {args.lighting} --image-noise {args.image_noise} --seed {args.seed}",
+        "command": f"python -m benchmarks.mujoco_tags --scenes {args.scenes} --views {args.views} --lighting {args.lighting} --image-noise {args.image_noise} --seed {args.seed}{detector}",
         "machine": f"{platform.machine()} {platform.processor() or ''}".strip(),
         **result,
     }
