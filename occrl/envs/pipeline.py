@@ -100,6 +100,9 @@ def make_env(
         perception = env_kwargs.pop("perception", "geometric")
         if perception != "geometric":
             raise ValueError(f"perception={perception!r} needs world='mujoco' (the 2D world has no camera image)")
+        for name in ("tag_layout", "wrist_camera", "shelf_height"):
+            if name in env_kwargs:
+                raise ValueError(f"{name} is a setting of the MuJoCo world: give it with world='mujoco'")
         env_cls = ShelfEnv
     elif world == "mujoco":
         from occrl.envs.mujoco3d.env import MujocoShelfEnv  # optional extra: imported only when asked for

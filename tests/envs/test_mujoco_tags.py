@@ -86,6 +86,8 @@ def test_a_tag_layout_sizes_the_tags_and_bad_layouts_are_refused():
         MujocoShelfEnv(perception="tags", tag_layout="huge")
     with pytest.raises(ValueError, match="give it with perception='tags'"):
         MujocoShelfEnv(tag_layout="at-most-3cm")
+    with pytest.raises(ValueError, match="tag_layout is a setting of the MuJoCo world"):
+        make_env(tag_layout="at-most-3cm")
 
 
 def test_an_env_with_another_tag_layout_wears_those_tags():
