@@ -88,6 +88,13 @@ def test_a_tag_layout_sizes_the_tags_and_bad_layouts_are_refused():
         MujocoShelfEnv(tag_layout="at-most-3cm")
     with pytest.raises(ValueError, match="tag_layout is a setting of the MuJoCo world"):
         make_env(tag_layout="at-most-3cm")
+    # occrl eval --tag-layout offers exactly the named layouts
+    import argparse
+
+    from occrl.cli import make_parser
+
+    sub = next(a for a in make_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    assert next(a.choices for a in sub.choices["eval"]._actions if a.dest == "tag_layout") == list(TAG_LAYOUTS)
 
 
 def test_an_env_with_another_tag_layout_wears_those_tags():
