@@ -31,6 +31,7 @@ __all__ = [
     "task_object_count",
     "check_replicate",
     "check_perception",
+    "check_world_settings",
     "decision_seed",
     "seeded_task_env",
     "episode_end",
@@ -141,6 +142,35 @@ def check_perception(perception: str, world: str) -> None:
         )
 
 
+def check_world_settings(world: str, perception: str = "geometric", shelf_height: float | None = None, tag_layout=None) -> None:
+    """``ValueError`` unless the settings fit together and each is one allowed: ``perception`` as
+    :func:`check_perception`; ``shelf_height`` (None: the env's) only in the ``"mujoco"`` world and
+    within :data:`~occrl.envs.mujoco3d.model.SHELF_HEIGHT_RANGE`; ``tag_layout`` (None: the env's)
+    only with ``perception="tags"`` and one :func:`~occrl.envs.mujoco3d.tags.as_tag_layout` takes.
+
+    Examples:
+        >>> from occrl.envs.episodes import check_world_settings
+        >>> check_world_settings("mujoco", "tags", shelf_height=0.4, tag_layout="at-most-3cm")
+        >>> check_world_settings("mujoco", shelf_height=0.4, tag_layout="at-most-3cm")
+        Traceback (most recent call last):
+            ...
+        ValueError: tag_layout sizes the tags the detector reads: it needs perception='tags', got perception='geometric'
+    """
+    check_perception(perception, world)
+    if shelf_height is not None:
+        if world != "mujoco":
+            raise ValueError(f"shelf_height needs world='mujoco' (the 2D world has no height), got world={world!r}")
+        from occrl.envs.mujoco3d.model import check_shelf_height  # MuJoCo is optional: imported when a height is given
+
+        check_shelf_height(shelf_height)
+    if tag_layout is not None:
+        if perception != "tags":
+            raise ValueError(f"tag_layout sizes the tags the detector reads: it needs perception='tags', got perception={perception!r}")
+        from occrl.envs.mujoco3d.tags import as_tag_layout
+
+        as_tag_layout(tag_layout)
+
+
 def decision_seed(task_seed: int, replicate: int = 0) -> int:
     """The seed of the decision maker's randomness in replicate ``replicate`` of a task: the task
     seed itself for replicate 0 (every recorded result), a seed drawn from (task seed, replicate)
@@ -199,11 +229,7 @@ def seeded_task_env(
         torch.Size([2])
     """
     decision_seeds = [decision_seed(s, replicate) for s in seeds]  # a bad replicate fails before any env is built
-    check_perception(perception, world)
-    if shelf_height is not None and world != "mujoco":
-        raise ValueError(f"shelf_height needs world='mujoco' (the 2D world has no height), got world={world!r}")
-    if tag_layout is not None and perception != "tags":
-        raise ValueError(f"tag_layout sizes the tags the detector reads: it needs perception='tags', got perception={perception!r}")
+    check_world_settings(world, perception, shelf_height, tag_layout)
     env = make_env(
         batch_size=len(scenes),
         scenes=list(scenes),

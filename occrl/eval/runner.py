@@ -23,7 +23,15 @@ from tqdm import tqdm
 
 from occrl.distributed import WorkerDiedError, is_worker_death, require_ray, start_ray
 from occrl.envs import world_constants as C
-from occrl.envs.episodes import EpisodeResult, check_perception, check_replicate, run_episodes, seeded_task_env, task_scenes  # noqa: F401 (re-exported)
+from occrl.envs.episodes import (  # noqa: F401 (re-exported)
+    EpisodeResult,
+    check_perception,
+    check_replicate,
+    check_world_settings,
+    run_episodes,
+    seeded_task_env,
+    task_scenes,
+)
 from occrl.eval.methods import make_method
 
 # EpisodeResult, run_episodes, task_scenes, seeded_task_env live in occrl.envs.episodes (importable here too)
@@ -288,23 +296,11 @@ def run_tasks(
     if backend not in ("local", "ray"):
         raise ValueError(f"backend must be 'local' or 'ray', got {backend!r}")
     check_replicate(replicate)
-    check_perception(perception, world)
+    check_world_settings(world, perception, shelf_height, tag_layout)
     chunks = [list(seeds[i : i + batch]) for i in range(0, len(seeds), batch)]
     own_bar = not hasattr(progress, "update")
     bar = tqdm(total=len(seeds), desc=f"{method} stage {stage} noise {noise}", unit="task", disable=not progress) if own_bar else progress
     results: list[list[EpisodeResult]] = [None] * len(chunks)
-    if shelf_height is not None:
-        if world != "mujoco":
-            raise ValueError(f"shelf_height needs world='mujoco' (the 2D world has no height), got world={world!r}")
-        from occrl.envs.mujoco3d.model import check_shelf_height
-
-        check_shelf_height(shelf_height)
-    if tag_layout is not None:
-        if perception != "tags":
-            raise ValueError(f"tag_layout sizes the tags the detector reads: it needs perception='tags', got perception={perception!r}")
-        from occrl.envs.mujoco3d.tags import as_tag_layout
-
-        as_tag_layout(tag_layout)
     jobs = [(stage, c, num_objects, noise, world, replicate, perception, shelf_height, tag_layout) for c in chunks]
     settings = dict(inference=inference)  # make_method's
     if backend == "ray":
