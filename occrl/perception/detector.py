@@ -75,13 +75,17 @@ MIN_MARKER_DISTANCE_RATE = 0.02
 DUPLICATE_PX = 3.0  # the same id decoded twice with corners this close: one tag
 
 
+def nearly_most_upright(scored: list[tuple[float, float, Any]]) -> list[tuple[float, float, Any]]:
+    """The ``(tilt_deg, reprojection_px, item)`` triples whose tilt is within
+    :data:`UPRIGHT_TOLERANCE_DEG` of the least, in the order given."""
+    least = min(tilt for tilt, _, _ in scored)
+    return [s for s in scored if s[0] <= least + UPRIGHT_TOLERANCE_DEG]
+
+
 def most_upright_then_sharpest(scored: list[tuple[float, float, Any]]) -> Any:
     """Of ``(tilt_deg, reprojection_px, item)`` triples, the item with the least reprojection error
-    among those whose tilt is within :data:`UPRIGHT_TOLERANCE_DEG` of the least (the first such on
-    a tie)."""
-    least = min(tilt for tilt, _, _ in scored)
-    upright = [s for s in scored if s[0] <= least + UPRIGHT_TOLERANCE_DEG]
-    return min(upright, key=lambda s: s[1])[2]
+    among the :func:`nearly_most_upright` (the first such on a tie)."""
+    return min(nearly_most_upright(scored), key=lambda s: s[1])[2]
 
 
 class PoseCandidate(NamedTuple):
@@ -290,9 +294,9 @@ class TagDetector:
         pixels = np.concatenate([np.asarray(corners, dtype=float).reshape(4, 2) for _, corners in tags])
         starts = [pose]
         if len(tags) == 1:  # each upright candidate (the chosen one among them)
-            options = [c for c in candidates if c][0]
-            least = min(tilt_deg(c.shelf_object) for c in options)
-            starts = [planar_pose(c.shelf_object) for c in options if tilt_deg(c.shelf_object) <= least + UPRIGHT_TOLERANCE_DEG]
+            (options,) = [c for c in candidates if c]
+            scored = [(tilt_deg(c.shelf_object), c.reprojection_px, c) for c in options]
+            starts = [planar_pose(c.shelf_object) for _, _, c in nearly_most_upright(scored)]
         fits = [fit_planar_pose(points, pixels, start, shelf_camera, self._camera_matrix, self._distortion) for start in starts]
         return min(fits, key=lambda f: f[1])[0]
 
