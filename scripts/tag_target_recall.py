@@ -19,16 +19,10 @@ import json
 
 import numpy as np
 
+from occrl.cli.options import parse_objects
 from occrl.envs.episodes import task_scenes
 from occrl.eval.methods import make_method
 from occrl.pretrained import weights_file
-
-
-def parse_objects(text: str | None):
-    if not text:
-        return None
-    low, _, high = str(text).partition("-")
-    return (int(low), int(high or low))
 
 
 def main() -> None:
@@ -48,7 +42,7 @@ def main() -> None:
     for seed in seeds:
         captured = {}
         (result,) = method.run_episodes(
-            task_scenes(run["stage"], [seed], parse_objects(run.get("objects"))),
+            task_scenes(run["stage"], [seed], parse_objects(run.get("objects"))),  # as occrl eval read --objects
             [seed],
             batch_size=1,
             world="mujoco",
