@@ -23,6 +23,7 @@ disagreeing).
     MUJOCO_GL=egl python -m benchmarks.mujoco_tags --scenes 40
     MUJOCO_GL=egl python -m benchmarks.mujoco_tags --scenes 40 --lighting 0.4 --image-noise 3 --out tags_noisy.json
     MUJOCO_GL=egl python -m benchmarks.mujoco_tags --scenes 40 --refine subpix --tag-poses   # other detector settings
+    MUJOCO_GL=egl python -m benchmarks.mujoco_tags --scenes 40 --tag-layout pairs            # other tags
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ import numpy as np
 
 from occrl.envs.episodes import task_scenes
 from occrl.envs.mujoco3d.tag_perception import TagObserver
+from occrl.envs.mujoco3d.tags import TAG_LAYOUTS, TagLayout, as_tag_layout
 from occrl.envs.mujoco3d.world import MujocoWorld
 from occrl.envs.mujoco3d.wrist_camera import WristCameraSettings
 from occrl.perception import TagDetector
@@ -127,7 +129,15 @@ def miss_cause(world, observer, k: int) -> str:
     return "not decoded"
 
 
-def measure(scenes: int, views: int, settings: WristCameraSettings, seed: int, refine: str = "edges", planar_fit: bool = True) -> dict:
+def measure(
+    scenes: int,
+    views: int,
+    settings: WristCameraSettings,
+    seed: int,
+    refine: str = "edges",
+    planar_fit: bool = True,
+    tag_layout: str | TagLayout = "fitted",
+) -> dict:
     import cv2
 
     cv2.setNumThreads(1)
@@ -138,7 +148,7 @@ def measure(scenes: int, views: int, settings: WristCameraSettings, seed: int, r
     render_s, decode_s = [], []
     seeds = list(range(FIRST_SEED, FIRST_SEED + scenes))
     for s, scene in zip(seeds, task_scenes(2, seeds, (1, 10))):
-        world = MujocoWorld(scene, tags=True)
+        world = MujocoWorld(scene, tags=as_tag_layout(tag_layout))
         observer = TagObserver(world, settings, np.random.default_rng([seed, s]))
         observer.detector = TagDetector(observer.calibration, observer.catalogue, refine=refine, planar_fit=planar_fit)
         for pose in view_poses(scene, views, rng):
@@ -246,13 +256,15 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument(
         "--tag-poses", action="store_true", help="each object's pose from its tags' own poses (TagDetector(planar_fit=False))"
     )
+    parser.add_argument("--tag-layout", choices=list(TAG_LAYOUTS), default="fitted", help="the objects' tags (TAG_LAYOUTS)")
     parser.add_argument("--out", default=None, help="write the result as JSON here")
     args = parser.parse_args(argv)
     if args.scenes < 1 or args.views < 1:
         parser.error("--scenes and --views must be at least 1")
     settings = WristCameraSettings(lighting=args.lighting, image_noise=args.image_noise)
-    result = measure(args.scenes, args.views, settings, args.seed, args.refine, not args.tag_poses)
+    result = measure(args.scenes, args.views, settings, args.seed, args.refine, not args.tag_poses, args.tag_layout)
     detector = f" --refine {args.refine}" + (" --tag-poses" if args.tag_poses else "")
+    detector += f" --tag-layout {args.tag_layout}" if args.tag_layout != "fitted" else ""
     result = {
         "command": f"python -m benchmarks.mujoco_tags --scenes {args.scenes} --views {args.views} --lighting {args.lighting} --image-noise {args.image_noise} --seed {args.seed}{detector}",
         "machine": f"{platform.machine()} {platform.processor() or ''}".strip(),

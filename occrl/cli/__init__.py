@@ -247,10 +247,11 @@ def add_eval(sub: argparse._SubParsersAction) -> None:
     )
     e.add_argument(
         "--tag-layout",
-        choices=["fitted", "at-most-3cm"],
+        choices=["fitted", "at-most-3cm", "pairs"],
         default=None,
-        help="with --perception tags: how large the objects' tags are: each as wide as its face allows, 8 mm to 6 cm "
-        "(fitted) or 1 to 3 cm (at-most-3cm) (default: fitted)",
+        help="with --perception tags: the objects' tags: one per face, as wide as the face allows, 8 mm to 6 cm (fitted); "
+        "one per face, 1 to 3 cm (at-most-3cm); or as fitted but two side by side on faces of 3.95 cm and more (pairs) "
+        "(default: fitted)",
     )
     e.add_argument(
         "--noise",

@@ -18,7 +18,16 @@ from occrl.envs.detection_slots import DetectionSlots  # noqa: E402
 from occrl.envs.episodes import seeded_task_env, task_scenes  # noqa: E402
 from occrl.envs.mujoco3d.camera import gl_available  # noqa: E402
 from occrl.envs.mujoco3d.tag_perception import TagObserver, tag_catalogue  # noqa: E402
-from occrl.envs.mujoco3d.tags import MAX_TAG_SIZE, MIN_TAG_SIZE, TAG_LAYOUTS, TagLayout, tag_id, tag_placements  # noqa: E402
+from occrl.envs.mujoco3d.tags import (  # noqa: E402
+    MAX_PAIRED_TYPE,
+    MAX_TAG_SIZE,
+    MIN_TAG_SIZE,
+    SECOND_TAG_BASE,
+    TAG_LAYOUTS,
+    TagLayout,
+    tag_id,
+    tag_placements,
+)
 from occrl.envs.mujoco3d.world import MujocoWorld  # noqa: E402
 from occrl.envs.mujoco3d.wrist_camera import WristCamera, WristCameraSettings  # noqa: E402
 from tests.helpers import scene  # noqa: E402
@@ -75,10 +84,37 @@ def test_a_tag_layout_sizes_the_tags_and_bad_layouts_are_refused():
         (2, 3, 0.0472),
     ]
     assert small == [(5, 0, 0.03), (5, 1, 0.0288), (5, 2, 0.03), (5, 3, 0.0288), (2, 1, 0.03), (2, 3, 0.03)]  # none on a 1.2 cm face
+    # pairs: two tags on the faces of 3.95 cm and more, one on each half; the second id from SECOND_TAG_BASE
+    pairs = [(t.tag_id, t.face, round(t.along, 4), round(t.size, 4)) for t in tag_placements(s, heights, TAG_LAYOUTS["pairs"])]
+    assert pairs == [
+        (32, 0, -0.015, 0.0232),
+        (SECOND_TAG_BASE + 32, 0, 0.015, 0.0232),
+        (33, 1, -0.01, 0.0152),
+        (SECOND_TAG_BASE + 33, 1, 0.01, 0.0152),
+        (34, 2, -0.015, 0.0232),
+        (SECOND_TAG_BASE + 34, 2, 0.015, 0.0232),
+        (35, 3, -0.01, 0.0152),
+        (SECOND_TAG_BASE + 35, 3, 0.01, 0.0152),
+        (8, 0, 0.0, 0.0088),
+        (9, 1, -0.015, 0.0232),
+        (SECOND_TAG_BASE + 9, 1, 0.015, 0.0232),
+        (10, 2, 0.0, 0.0088),
+        (11, 3, -0.015, 0.0232),
+        (SECOND_TAG_BASE + 11, 3, 0.015, 0.0232),
+    ]
+    assert [t for t in TagLayout(pair_size=0.016).tags_on_face(0.04)] == [(0.0, TagLayout().tag_size(0.04))]  # halves too small
+    high = Scene.from_objects([{"vertices": box, "pose": (0.0, 0.2, 0.0), "is_target": True, "type_id": MAX_PAIRED_TYPE + 1}])
+    assert len(tag_placements(high, heights[:1])) == 4  # single tags go up to type 73
+    with pytest.raises(ValueError, match=r"pairs tags type ids 1 to 36 .* type ids \[37\]"):
+        tag_placements(high, heights[:1], TAG_LAYOUTS["pairs"])
+    with pytest.raises(ValueError, match=r"type id in \[1, 36\]"):
+        tag_id(37, 0, second=True)
     for bad, match in (
         (dict(min_size=0.05, max_size=0.03), "min_size <= max_size"),
         (dict(max_size=float("nan")), "finite number"),
         (dict(clearance=-0.001), "clearance must be in"),
+        (dict(pair_size=0.005), r"pair_size must be None or in \[min_size, max_size\]"),
+        (dict(pair_size=float("inf")), "pair_size must be a finite number"),
     ):
         with pytest.raises(ValueError, match=match):
             TagLayout(**bad)
@@ -125,17 +161,20 @@ def test_tag_cards_change_neither_physics_nor_geometric_visibility():
     assert np.array_equal(render.visible_fractions("render"), MujocoWorld(s, visibility="render").visible_fractions("render"))
 
 
-def test_decoded_tags_are_where_the_catalogue_puts_them():
+@pytest.mark.parametrize("layout", ["fitted", "pairs"])
+def test_decoded_tags_are_where_the_catalogue_puts_them(layout):
     """Each decoded tag's corners in the rendered image lie within 1.5 pixels of the catalogue's
-    corners projected through the camera model: texture, orientation, placement and calibration
-    agree."""
+    corners projected through the camera model: texture, orientation, placement (off the face's
+    centre too, for pairs) and calibration agree."""
     import cv2
 
-    world = MujocoWorld(TWO_IN_VIEW, tags=True, object_height=0.15)
+    world = MujocoWorld(TWO_IN_VIEW, tags=TAG_LAYOUTS[layout], object_height=0.15)
     observer = TagObserver(world)
     catalogue, camera = tag_catalogue(world), observer.calibration
     tags = observer.detector.detect_tags(observer.image())
     assert {catalogue[t["tag_id"]].type_id for t in tags} == {1, 2}  # both objects show a tag
+    if layout == "pairs":
+        assert {catalogue[t["tag_id"]].offset[0] > 0 for t in tags} == {True, False}  # both tags of a pair
     shelf_camera = world.gripper_transform() @ camera.hand_camera
     for t in tags:
         entry = catalogue[t["tag_id"]]

@@ -29,7 +29,9 @@ def tag_catalogue(world) -> TagCatalogue:
     for p in world.tags:
         o = world.scene.objects[p.object_index]
         entries.append(
-            TagEntry(p.tag_id, p.type_id, [tuple(v) for v in o.vertices], float(world.heights[p.object_index]), p.face, (0.0, p.up), p.size)
+            TagEntry(
+                p.tag_id, p.type_id, [tuple(v) for v in o.vertices], float(world.heights[p.object_index]), p.face, (p.along, p.up), p.size
+            )
         )
     return TagCatalogue(entries)
 
