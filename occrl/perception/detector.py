@@ -17,13 +17,18 @@ project almost alike, OpenCV's IPPE returns both):
 3. an object seen through several tags takes one candidate per tag such that all agree pairwise
    within ``agreement`` (2 cm and 10 degrees by default); among the agreeing combinations whose
    total tilt is within :data:`UPRIGHT_TOLERANCE_DEG` of the least, the one with the least total
-   reprojection error, and reports their mean pose; when no combination agrees, the object is
-   dropped for that frame (not reported), counted in :attr:`TagDetector.disagreement_count` and
-   warned once per type.
+   reprojection error, and reports their mean pose;
 4. with ``planar_fit`` (the default), the pose so chosen starts a fit of the object's planar pose
    (x, y, theta; upright on the shelf floor) to the corners of all its decoded tags
    (:func:`~occrl.perception.planar_fit.fit_planar_pose`); an object seen through one tag fits from
-   each of its upright candidates and keeps the fit with the least reprojection error.
+   each of its upright candidates and keeps the fit with the least reprojection error;
+5. when no combination agrees: with ``planar_fit``, the object's planar pose is fitted to the
+   corners of all its tags from each candidate of each tag, and the object is kept at the best fit
+   when that reprojects within :data:`FIT_AGREEMENT_PX` (RMS pixels): the corners fit one upright
+   object, only the tags' own poses (each with its tilt and yaw noise) disagreed. Otherwise (or
+   without ``planar_fit``) the object is dropped for that frame (not reported), counted in
+   :attr:`TagDetector.disagreement_count` and warned once per type: its tags do not fit one
+   object, as when the catalogue misplaces one.
 
 A decoded tag id that the catalogue does not list is skipped, counted in
 :attr:`TagDetector.unknown_tag_count` and warned once per id. At most ``max_detections`` objects
@@ -54,6 +59,7 @@ __all__ = [
     "AMBIGUITY_PX",
     "UPRIGHT_TOLERANCE_DEG",
     "DEFAULT_AGREEMENT",
+    "FIT_AGREEMENT_PX",
     "MAX_DETECTIONS",
     "MIN_MARKER_DISTANCE_RATE",
     "DUPLICATE_PX",
@@ -67,6 +73,9 @@ AMBIGUITY_PX = 1.0  # IPPE's second pose is kept when it reprojects within this 
 # the reprojection error chooses among them
 UPRIGHT_TOLERANCE_DEG = 5.0
 DEFAULT_AGREEMENT = (0.02, 10.0)  # metres, degrees
+# tags whose own poses disagree still make one object when one planar pose puts all their corners
+# within this of the decoded ones (RMS pixels; corners are located to a few tenths of a pixel)
+FIT_AGREEMENT_PX = 1.5
 MAX_DETECTIONS = 10  # the observation's object slots (occrl.envs.world_constants.MAX_OBJECTS)
 # OpenCV drops the smaller of two candidate squares closer than this (relative to the perimeter);
 # its default, 0.125, dropped the tag for the outline of its white margin in 17 of 320 synthetic
@@ -250,9 +259,17 @@ class TagDetector:
         distance = math.hypot(pa[0] - pb[0], pa[1] - pb[1])
         return distance <= self.agreement[0] and abs(math.degrees(angle_difference(pa[2], pb[2]))) <= self.agreement[1]
 
-    def object_pose(self, type_id: int, candidates: list[list[PoseCandidate]]) -> tuple[float, float, float] | None:
+    def object_pose(
+        self,
+        type_id: int,
+        candidates: list[list[PoseCandidate]],
+        tags: list[tuple[TagEntry, np.ndarray]] | None = None,
+        shelf_camera: np.ndarray | None = None,
+    ) -> tuple[float, float, float] | None:
         """One object's planar pose from its tags' candidates (one list per tag), by the rule of
-        :mod:`occrl.perception.detector`; None when its tags disagree."""
+        :mod:`occrl.perception.detector`; None when its tags disagree. ``tags`` (their catalogue
+        entries and decoded corners) and ``shelf_camera`` let tags whose own poses disagree be
+        fitted together (step 5, with ``planar_fit``)."""
         candidates = [c for c in candidates if c]
         if not candidates:
             return None
@@ -265,6 +282,11 @@ class TagDetector:
         for combo in itertools.product(*options):
             if all(self._agree(a.shelf_object, b.shelf_object) for a, b in itertools.combinations(combo, 2)):
                 agreeing.append((sum(tilt_deg(c.shelf_object) for c in combo), sum(c.reprojection_px for c in combo), combo))
+        if not agreeing and self.planar_fit and tags is not None and shelf_camera is not None:
+            starts = [planar_pose(c.shelf_object) for options in candidates for c in options]
+            pose, rms = self._best_fit(tags, starts, shelf_camera)
+            if rms <= FIT_AGREEMENT_PX:
+                return pose
         if not agreeing:
             self.disagreement_count += 1
             if type_id not in self._warned_disagreement:
@@ -290,15 +312,22 @@ class TagDetector:
         """The planar pose fitted to the corners of ``tags`` (their catalogue entries and decoded
         corners) from ``pose``, the pose :meth:`object_pose` chose; an object seen through one tag
         also fits from that tag's other upright candidates and keeps the least reprojection error."""
-        points = np.concatenate([entry.corners_in_object for entry, _ in tags])
-        pixels = np.concatenate([np.asarray(corners, dtype=float).reshape(4, 2) for _, corners in tags])
         starts = [pose]
         if len(tags) == 1:  # each upright candidate (the chosen one among them)
             (options,) = [c for c in candidates if c]
             scored = [(tilt_deg(c.shelf_object), c.reprojection_px, c) for c in options]
             starts = [planar_pose(c.shelf_object) for _, _, c in nearly_most_upright(scored)]
+        return self._best_fit(tags, starts, shelf_camera)[0]
+
+    def _best_fit(
+        self, tags: list[tuple[TagEntry, np.ndarray]], starts: list[tuple[float, float, float]], shelf_camera: np.ndarray
+    ) -> tuple[tuple[float, float, float], float]:
+        """The planar pose fitted to the corners of ``tags`` from each of ``starts`` with the least
+        RMS reprojection error (pixels), and that error."""
+        points = np.concatenate([entry.corners_in_object for entry, _ in tags])
+        pixels = np.concatenate([np.asarray(corners, dtype=float).reshape(4, 2) for _, corners in tags])
         fits = [fit_planar_pose(points, pixels, start, shelf_camera, self._camera_matrix, self._distortion) for start in starts]
-        return min(fits, key=lambda f: f[1])[0]
+        return min(fits, key=lambda f: f[1])
 
     def detect(self, image: np.ndarray, gripper_pose: np.ndarray) -> list[dict[str, Any]]:
         """The objects whose tags are decoded in ``image``, as
@@ -325,7 +354,7 @@ class TagDetector:
             seen.setdefault(entry.type_id, []).append((entry, tag["corners"]))
         objects = []
         for type_id in sorted(by_type):
-            pose = self.object_pose(type_id, by_type[type_id])
+            pose = self.object_pose(type_id, by_type[type_id], seen[type_id], shelf_camera)
             if pose is not None and self.planar_fit:
                 pose = self.fitted_pose(pose, by_type[type_id], seen[type_id], shelf_camera)
             if pose is not None:

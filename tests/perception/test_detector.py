@@ -115,6 +115,28 @@ def test_disagreeing_tags_drop_the_object_counted_and_warned_once(caplog):
     assert len(warnings) == 1 and "the tags of type 3 disagree by more than 0.02 m / 10 deg" in warnings[0]
 
 
+def test_tags_whose_corners_fit_one_object_are_kept_though_their_own_poses_disagree():
+    """Step 5 of the rule: the tags' own poses disagree (here made to, 3.6 cm and 34 degrees
+    apart), yet one upright pose puts all their corners on the decoded ones: kept at that pose
+    with the planar fit, dropped without it. A misplaced catalogue entry stays dropped (the test
+    above)."""
+    g = gripper()
+    truth = (0.01, 0.1, math.radians(45))
+    image = image_of([(3, truth)], g)
+    a = [PoseCandidate(np.eye(4), gripper_pose_matrix(0.05, 0.1, 0.8), 0.1)]
+    b = [PoseCandidate(np.eye(4), gripper_pose_matrix(0.03, 0.13, 0.2), 0.1)]
+    for planar in (True, False):
+        detector = TagDetector(camera(), catalogue(), planar_fit=planar)
+        tags = [(detector.catalogue[t["tag_id"]], t["corners"]) for t in detector.detect_tags(image)]
+        assert len(tags) == 2
+        found = detector.object_pose(3, [a, b], tags, g @ detector.camera.hand_camera)
+        if planar:
+            distance, angle = pose_error(found, truth)
+            assert distance < 0.003 and angle < 1.5 and detector.disagreement_count == 0, (distance, angle)
+        else:
+            assert found is None and detector.disagreement_count == 1
+
+
 def test_agreement_picks_the_combination_that_agrees():
     detector = TagDetector(camera(), catalogue())
 
