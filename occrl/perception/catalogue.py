@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 from typing import Any, Iterator, Sequence
 
@@ -108,13 +109,14 @@ class TagEntry:
         object.__setattr__(self, "offset", (float(offset[0]), float(offset[1])))
         object.__setattr__(self, "size", size)
 
-    @property
+    @cached_property
     def tag_in_object(self) -> np.ndarray:
         """The 4x4 pose of the tag frame (OpenCV's: centre, x right, y up, z out of the tag) in the
-        object frame."""
+        object frame (read-only)."""
         t = np.eye(4)
         if self.face == "top":
             t[:3, 3] = [self.offset[0], self.offset[1], self.height]
+            t.flags.writeable = False
             return t
         fp = np.array(self.footprint)
         a, b = fp[self.face], fp[(self.face + 1) % len(fp)]
@@ -124,20 +126,25 @@ class TagEntry:
         t[:3, :3] = np.stack([x_axis, [0.0, 0.0, 1.0], z_axis], axis=1)
         mid = (a + b) / 2 + self.offset[0] * e
         t[:3, 3] = [mid[0], mid[1], self.offset[1]]
+        t.flags.writeable = False
         return t
 
-    @property
+    @cached_property
     def corners_in_tag(self) -> np.ndarray:
         """(4, 3) the tag's corners in its own frame, in OpenCV's order: top-left, top-right,
-        bottom-right, bottom-left as the tag reads."""
+        bottom-right, bottom-left as the tag reads (read-only)."""
         s = self.size / 2
-        return np.array([[-s, s, 0.0], [s, s, 0.0], [s, -s, 0.0], [-s, -s, 0.0]])
+        corners = np.array([[-s, s, 0.0], [s, s, 0.0], [s, -s, 0.0], [-s, -s, 0.0]])
+        corners.flags.writeable = False
+        return corners
 
-    @property
+    @cached_property
     def corners_in_object(self) -> np.ndarray:
-        """(4, 3) the tag's corners in the object frame (order of :attr:`corners_in_tag`)."""
+        """(4, 3) the tag's corners in the object frame (order of :attr:`corners_in_tag`; read-only)."""
         t = self.tag_in_object
-        return self.corners_in_tag @ t[:3, :3].T + t[:3, 3]
+        corners = self.corners_in_tag @ t[:3, :3].T + t[:3, 3]
+        corners.flags.writeable = False
+        return corners
 
 
 class TagCatalogue:

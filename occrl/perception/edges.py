@@ -50,22 +50,24 @@ def refine_corners_on_edges(grey: np.ndarray, corners: np.ndarray, cells: int = 
     ok = (peak[..., 0] > 10.0) & (total > 0)
     offset = (weight * s[None, None, :]).sum(axis=2) / np.where(total > 0, total, 1.0)
     edge_points = base + offset[..., None] * n[:, None, :]
-    lines = []
-    for k in range(4):
-        pts = edge_points[k][ok[k]]
-        if len(pts) < SAMPLES_PER_EDGE // 2:
-            return c
-        centre = pts.mean(axis=0)
-        _, _, vt = np.linalg.svd(pts - centre)
-        normal = vt[1]
-        lines.append((normal, float(normal @ centre)))
-    refined = np.empty_like(c)
-    for k in range(4):  # corner k joins edge k - 1 and edge k
-        (n1, d1), (n2, d2) = lines[k - 1], lines[k]
-        m = np.array([n1, n2])
-        if abs(np.linalg.det(m)) < 1e-6:
-            return c
-        refined[k] = np.linalg.solve(m, [d1, d2])
+    count = ok.sum(axis=1)
+    if np.any(count < SAMPLES_PER_EDGE // 2):
+        return c
+    # each edge's line through its points (total least squares: the centroid and the principal axis
+    # of the points' 2 x 2 covariance, in closed form), then each corner as two lines' intersection
+    w = ok.astype(np.float64)
+    centre = (edge_points * w[..., None]).sum(axis=1) / count[:, None]
+    r = (edge_points - centre[:, None, :]) * w[..., None]
+    sxx, syy, sxy = (r[..., 0] ** 2).sum(axis=1), (r[..., 1] ** 2).sum(axis=1), (r[..., 0] * r[..., 1]).sum(axis=1)
+    phi = 0.5 * np.arctan2(2.0 * sxy, sxx - syy)  # the line's direction
+    normal = np.stack([-np.sin(phi), np.cos(phi)], axis=1)
+    offset_along_normal = (normal * centre).sum(axis=1)
+    n1, d1 = np.roll(normal, 1, axis=0), np.roll(offset_along_normal, 1)  # corner k joins edge k - 1 and edge k
+    n2, d2 = normal, offset_along_normal
+    det = n1[:, 0] * n2[:, 1] - n1[:, 1] * n2[:, 0]
+    if np.any(np.abs(det) < 1e-6):
+        return c
+    refined = np.stack([(d1 * n2[:, 1] - n1[:, 1] * d2) / det, (n1[:, 0] * d2 - d1 * n2[:, 0]) / det], axis=1)
     if np.abs(refined - c).max() > MAX_SHIFT_PX:
         return c
     return refined

@@ -74,24 +74,28 @@ def fit_planar_pose(
     camera_shelf = invert_transform(np.asarray(shelf_camera, dtype=np.float64))
     rotation, translation = camera_shelf[:3, :3], camera_shelf[:3, 3]
 
+    # a point of the object at pose (x, y, theta), in the camera frame:
+    # cos(theta) * along + sin(theta) * across + fixed + x * rotation[:, 0] + y * rotation[:, 1]
+    along = np.c_[points[:, :2], np.zeros(n)] @ rotation.T
+    across = np.c_[-points[:, 1], points[:, 0], np.zeros(n)] @ rotation.T
+    fixed = np.outer(points[:, 2], rotation[:, 2]) + translation
+
     def residual(p: np.ndarray, jacobian: bool = False):
         c, s = math.cos(p[2]), math.sin(p[2])
-        turned = points @ np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])  # points @ Rz(theta).T
-        in_camera = (turned + [p[0], p[1], 0.0]) @ rotation.T + translation
+        in_camera = c * along + s * across + fixed + p[0] * rotation[:, 0] + p[1] * rotation[:, 1]
         z = in_camera[:, 2:3]
-        r = ((in_camera[:, :2] / z - seen) * focal).reshape(-1)
+        projected = in_camera[:, :2] / z
+        r = ((projected - seen) * focal).reshape(-1)
         if not jacobian:
             return r
-        d_point = np.empty((n, 3, 3))  # d camera-frame point / d (x, y, theta)
+        # d camera-frame point / d (x, y, theta): (n, 3 coordinates, 3 unknowns)
+        d_point = np.empty((n, 3, 3))
         d_point[:, :, 0] = rotation[:, 0]
         d_point[:, :, 1] = rotation[:, 1]
-        d_point[:, :, 2] = np.stack([-turned[:, 1], turned[:, 0], np.zeros(n)], axis=1) @ rotation.T
-        # d (X / Z, Y / Z) / d point, in pixels
-        by_point = np.zeros((n, 2, 3))
-        by_point[:, 0, 0] = focal[0] / z[:, 0]
-        by_point[:, 1, 1] = focal[1] / z[:, 0]
-        by_point[:, :, 2] = -(in_camera[:, :2] / z**2) * focal
-        return r, np.einsum("nij,njk->nik", by_point, d_point).reshape(2 * n, 3)
+        d_point[:, :, 2] = c * across - s * along
+        # d (X / Z, Y / Z) / d unknowns, in pixels
+        d_pixel = (d_point[:, :2, :] - projected[:, :, None] * d_point[:, 2:3, :]) / z[:, :, None] * focal[None, :, None]
+        return r, d_pixel.reshape(2 * n, 3)
 
     p = np.asarray(start, dtype=np.float64).copy()
     r, jac = residual(p, jacobian=True)
