@@ -251,7 +251,7 @@ def add_eval(sub: argparse._SubParsersAction) -> None:
         default=None,
         help="with --perception tags: the objects' tags: one per face, as wide as the face allows, 8 mm to 6 cm (fitted); "
         "one per face, 1 to 3 cm (at-most-3cm); or as fitted but two side by side on faces of 3.95 cm and more (pairs) "
-        "(default: fitted)",
+        "(default: pairs)",
     )
     e.add_argument(
         "--noise",

@@ -286,6 +286,8 @@ def run_eval(args: argparse.Namespace) -> int:
         )
     finally:
         _stop_ray_if_used(args)
+    from occrl.envs.mujoco3d.tags import DEFAULT_TAG_LAYOUT
+
     summary = {
         "method": args.method,
         "network": method_network(args.method, args.weights)[0],  # a default name resolved to the network it stands for
@@ -295,7 +297,7 @@ def run_eval(args: argparse.Namespace) -> int:
         "world": args.world,
         **({"perception": args.perception} if args.perception != "geometric" else {}),
         **({"shelf_height": args.shelf_height} if args.shelf_height is not None else {}),
-        **({"tag_layout": args.tag_layout} if args.tag_layout is not None else {}),
+        **({"tag_layout": args.tag_layout or DEFAULT_TAG_LAYOUT} if args.perception == "tags" else {}),
         "first_seed": args.seed,
         **({"inference": args.inference} if args.inference != "torch" else {}),
         **({"replicate": args.replicate} if args.replicate else {}),

@@ -219,7 +219,7 @@ def seeded_task_env(
     :func:`decision_seed` instead (the env keeps the task seeds). ``perception="tags"`` makes the
     MuJoCo env report what its tag detector decodes (:class:`~occrl.envs.MujocoShelfEnv`);
     ``shelf_height`` (MuJoCo only; None: the env's 0.30 m) sets its shelf's inside height, and
-    ``tag_layout`` (with ``perception="tags"``; None: the env's ``"fitted"``) its tags' sizes.
+    ``tag_layout`` (with ``perception="tags"``; None: the env's default) its tags.
 
     Examples:
         >>> from occrl.baselines import ScriptedRetriever

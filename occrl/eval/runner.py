@@ -282,7 +282,7 @@ def run_tasks(
     what every recorded result ran). ``perception="tags"`` (with ``world="mujoco"``) plans from what
     the tag detector decodes in the wrist camera's image instead of the geometric visibility rule;
     ``shelf_height`` (with ``world="mujoco"``; None: 0.30 m) the MuJoCo shelf's inside height;
-    ``tag_layout`` (with ``perception="tags"``; None: ``"fitted"``) the tags' sizes
+    ``tag_layout`` (with ``perception="tags"``; None: the env's default) the tags
     (:data:`~occrl.envs.mujoco3d.tags.TAG_LAYOUTS`).
     ``progress``: show a progress bar with an ETA
     (``True``), none (``False``), or advance a ``tqdm`` bar the caller owns (a sweep's).

@@ -19,6 +19,7 @@ from occrl.envs.episodes import seeded_task_env, task_scenes  # noqa: E402
 from occrl.envs.mujoco3d.camera import gl_available  # noqa: E402
 from occrl.envs.mujoco3d.tag_perception import TagObserver, tag_catalogue  # noqa: E402
 from occrl.envs.mujoco3d.tags import (  # noqa: E402
+    DEFAULT_TAG_LAYOUT,
     MAX_PAIRED_TYPE,
     MAX_TAG_SIZE,
     MIN_TAG_SIZE,
@@ -318,6 +319,7 @@ def test_occrl_eval_passes_perception_through(tmp_path, capsys):
     assert main([*args, "--out", str(out)]) == 0
     result = json.loads(out.read_text())
     assert result["perception"] == "tags" and result["success_rate"] == 1.0  # the privileged script reaches its target
+    assert result["tag_layout"] == DEFAULT_TAG_LAYOUT == "pairs"  # recorded when left to the default
     assert main([*args, "--tag-layout", "at-most-3cm", "--out", str(out)]) == 0
     assert json.loads(out.read_text())["tag_layout"] == "at-most-3cm"
     assert main([*args[:5], "--tag-layout", "at-most-3cm", "--tasks", "1"]) == 2  # no --perception tags
@@ -331,3 +333,4 @@ def test_occrl_eval_passes_perception_through(tmp_path, capsys):
         ScriptedRetriever(), task_scenes(2, [5], 1), [5], world="mujoco", perception="tags", on_env=lambda env: built.append(env.base_env)
     )
     assert [env.perception for env in built] == ["tags"] and len(built[0].tag_observers) == 1
+    assert built[0].tag_layout == TAG_LAYOUTS["pairs"]

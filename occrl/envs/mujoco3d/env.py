@@ -20,7 +20,7 @@ from torchrl.data import Bounded
 from occrl.envs import world_constants as C
 from occrl.envs.mujoco3d.camera import CameraConfig, gl_available, require_mujoco
 from occrl.envs.mujoco3d.model import OBJECT_HEIGHT_RANGE, SHELF_HEIGHT, check_shelf_height
-from occrl.envs.mujoco3d.tags import TagLayout, as_tag_layout
+from occrl.envs.mujoco3d.tags import DEFAULT_TAG_LAYOUT, TagLayout, as_tag_layout
 from occrl.envs.mujoco3d.world import MujocoWorld
 from occrl.envs.mujoco3d.wrist_camera import WristCameraSettings
 from occrl.envs.scene import Scene
@@ -94,10 +94,11 @@ class MujocoShelfEnv(ShelfEnv):
             640 x 480, 70 degrees across, nominal light, no noise by default). The lighting and
             noise draw from a stream spawned from each world's seed, a frame's noise from that
             stream's seed and the frame's simulated time: a seed fixes the images, in any batch.
-        tag_layout: with ``perception="tags"``, how large the objects' tags are: a
+        tag_layout: with ``perception="tags"``, the objects' tags: a
             :class:`~occrl.envs.mujoco3d.tags.TagLayout` or a name in
-            :data:`~occrl.envs.mujoco3d.tags.TAG_LAYOUTS` (``"fitted"``, the default: each tag as
-            wide as its face allows, 8 mm to 6 cm; ``"at-most-3cm"``: 1 to 3 cm).
+            :data:`~occrl.envs.mujoco3d.tags.TAG_LAYOUTS` (``"pairs"``, the default: each tag as
+            wide as its face allows, 8 mm to 6 cm, and two side by side on faces of 3.95 cm and
+            more; ``"fitted"``: one per face; ``"at-most-3cm"``: one per face, 1 to 3 cm).
 
     Raises:
         ImportError: mujoco or dm_control are missing (the message names the extra to install).
@@ -128,7 +129,7 @@ class MujocoShelfEnv(ShelfEnv):
         perception: str = "geometric",
         wrist_camera: WristCameraSettings | None = None,
         shelf_height: float = SHELF_HEIGHT,
-        tag_layout: str | TagLayout = "fitted",
+        tag_layout: str | TagLayout = DEFAULT_TAG_LAYOUT,
     ) -> None:
         require_mujoco()
         self.shelf_height = check_shelf_height(shelf_height)
@@ -139,7 +140,7 @@ class MujocoShelfEnv(ShelfEnv):
         if wrist_camera is not None and perception != "tags":
             raise ValueError("wrist_camera sets the tag detector's camera: give it with perception='tags'")
         self.tag_layout = as_tag_layout(tag_layout)
-        if self.tag_layout != TagLayout() and perception != "tags":
+        if self.tag_layout != as_tag_layout(DEFAULT_TAG_LAYOUT) and perception != "tags":
             raise ValueError("tag_layout sizes the tags the detector reads: give it with perception='tags'")
         if wrist_camera is not None and not isinstance(wrist_camera, WristCameraSettings):
             raise TypeError(f"wrist_camera must be a WristCameraSettings, got {type(wrist_camera).__name__}")

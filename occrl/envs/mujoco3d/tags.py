@@ -10,7 +10,7 @@ a 0.2 mm card set into the face, its print 0.05 mm out of it (the catalogue puts
 face: a 0.05 mm offset, far below what the camera resolves). A face narrower than the smallest tag
 with its border and the layout's clearance either side carries none. :data:`TAG_LAYOUTS` names
 the layouts ``make_env(world="mujoco", perception="tags", tag_layout=...)`` and ``occrl eval
---tag-layout`` take.
+--tag-layout`` take; :data:`DEFAULT_TAG_LAYOUT` is theirs by default.
 
 Tag ids follow the object's type: tag ``(type_id - 1) * 8 + face``, where face ``k`` runs from
 vertex ``k`` to vertex ``k + 1`` of the type's counter-clockwise polygon, so a type always wears
@@ -50,6 +50,7 @@ __all__ = [
     "MAX_PAIRED_TYPE",
     "TagLayout",
     "TAG_LAYOUTS",
+    "DEFAULT_TAG_LAYOUT",
     "as_tag_layout",
     "TagPlacement",
     "tag_id",
@@ -138,6 +139,7 @@ TAG_LAYOUTS = {
     "at-most-3cm": TagLayout(min_size=0.010, max_size=0.030, clearance=0.002),  # one common printed size, no small ones
     "pairs": TagLayout(pair_size=0.015),  # two tags on faces whose halves hold 1.5 cm ones (faces of 3.95 cm and more)
 }
+DEFAULT_TAG_LAYOUT = "pairs"  # make_env's and occrl eval's: the highest recall of the three
 
 
 def as_tag_layout(layout: str | TagLayout) -> TagLayout:

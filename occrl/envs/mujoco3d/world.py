@@ -17,7 +17,7 @@ import numpy as np
 
 from occrl.envs import world_constants as C
 from occrl.envs.mujoco3d.camera import VISIBLE_GROUPS, CameraConfig, RendererOwner, new_renderer, prism_pixel_counts, require_mujoco
-from occrl.envs.mujoco3d.tags import TagLayout, TagPlacement, add_tags, tag_placements
+from occrl.envs.mujoco3d.tags import DEFAULT_TAG_LAYOUT, TagLayout, TagPlacement, add_tags, as_tag_layout, tag_placements
 from occrl.envs.mujoco3d.model import FINGER_CLOSED_TARGET, OBJECT_HEIGHT_RANGE, SHELF_HEIGHT, TIMESTEP, build_mjcf, type_height
 from occrl.envs.pymunk2d.physics_settings import INVALID_PENETRATION
 from occrl.envs.scene import Scene
@@ -40,9 +40,10 @@ class MujocoWorld(RendererOwner):
         record_camera: also keep a renderer for RGB frames (needs OpenGL).
         noise: execution noise on density and friction, drawn before each action from ``rng``.
         object_height: a height in m, or a (low, high) range sampled per type id.
-        tags: put a fiducial tag on every side face wide enough (:mod:`~occrl.envs.mujoco3d.tags`;
-            needs OpenCV), sized by the default :class:`~occrl.envs.mujoco3d.tags.TagLayout` or the
-            one given; the cards are visual only, so physics and visibility are unchanged.
+        tags: put fiducial tags on the side faces (:mod:`~occrl.envs.mujoco3d.tags`; needs
+            OpenCV): ``True`` for the :data:`~occrl.envs.mujoco3d.tags.DEFAULT_TAG_LAYOUT`, or a
+            :class:`~occrl.envs.mujoco3d.tags.TagLayout`; the cards are visual only, so physics
+            and visibility are unchanged.
         shelf_height: the shelf's inside height in m (0.30 by default; the papers' real shelf: 0.40).
 
     Examples:
@@ -90,7 +91,7 @@ class MujocoWorld(RendererOwner):
         self.mjcf_model = build_mjcf(scene, camera, object_height, shelf_height)
         self.tags: list[TagPlacement] = []
         if tags:
-            self.tags = tag_placements(scene, self.heights, tags if isinstance(tags, TagLayout) else TagLayout())
+            self.tags = tag_placements(scene, self.heights, tags if isinstance(tags, TagLayout) else as_tag_layout(DEFAULT_TAG_LAYOUT))
             add_tags(self.mjcf_model, self.tags)
         self.physics = mjcf.Physics.from_mjcf_model(self.mjcf_model)
         m = self.model = self.physics.model.ptr
