@@ -228,8 +228,9 @@ class TagDetector:
 
     def tag_pose_candidates(self, entry: TagEntry, corners: np.ndarray, shelf_camera: np.ndarray) -> list[PoseCandidate]:
         """The poses a tag's ``corners`` allow (best first): IPPE's best, and its other solution
-        when that reprojects within :data:`AMBIGUITY_PX` of the best. ``shelf_camera``: the
-        camera's pose in the shelf frame."""
+        when that reprojects within :data:`AMBIGUITY_PX` of the best; a solution behind the camera
+        or not finite (IPPE on a degenerate square) is left out. ``shelf_camera``: the camera's
+        pose in the shelf frame."""
         cv2 = self._cv2
         found, rvecs, tvecs, errors = cv2.solvePnPGeneric(
             entry.corners_in_tag,
@@ -249,6 +250,8 @@ class TagDetector:
             camera_tag = np.eye(4)
             camera_tag[:3, :3] = cv2.Rodrigues(rvec)[0]
             camera_tag[:3, 3] = np.asarray(tvec, dtype=float).reshape(3)
+            if not (np.isfinite(camera_tag).all() and math.isfinite(err)):  # a degenerate square: no pose
+                continue
             if camera_tag[2, 3] <= 0:  # behind the camera
                 continue
             out.append(PoseCandidate(camera_tag, shelf_camera @ camera_tag @ object_tag_inverse, float(err)))
