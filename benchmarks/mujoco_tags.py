@@ -23,7 +23,7 @@ disagreeing).
     MUJOCO_GL=egl python -m benchmarks.mujoco_tags --scenes 40
     MUJOCO_GL=egl python -m benchmarks.mujoco_tags --scenes 40 --lighting 0.4 --image-noise 3 --out tags_noisy.json
     MUJOCO_GL=egl python -m benchmarks.mujoco_tags --scenes 40 --refine subpix --tag-poses   # other detector settings
-    MUJOCO_GL=egl python -m benchmarks.mujoco_tags --scenes 40 --tag-layout pairs            # other tags
+    MUJOCO_GL=egl python -m benchmarks.mujoco_tags --scenes 40 --tag-layout fitted           # other tags
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ import numpy as np
 
 from occrl.envs.episodes import task_scenes
 from occrl.envs.mujoco3d.tag_perception import TagObserver
-from occrl.envs.mujoco3d.tags import TAG_LAYOUTS, TagLayout, as_tag_layout
+from occrl.envs.mujoco3d.tags import DEFAULT_TAG_LAYOUT, TAG_LAYOUTS, TagLayout, as_tag_layout
 from occrl.envs.mujoco3d.world import MujocoWorld
 from occrl.envs.mujoco3d.wrist_camera import WristCameraSettings
 from occrl.perception import TagDetector
@@ -136,7 +136,7 @@ def measure(
     seed: int,
     refine: str = "edges",
     planar_fit: bool = True,
-    tag_layout: str | TagLayout = "fitted",
+    tag_layout: str | TagLayout = DEFAULT_TAG_LAYOUT,
 ) -> dict:
     import cv2
 
@@ -256,7 +256,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument(
         "--tag-poses", action="store_true", help="each object's pose from its tags' own poses (TagDetector(planar_fit=False))"
     )
-    parser.add_argument("--tag-layout", choices=list(TAG_LAYOUTS), default="fitted", help="the objects' tags (TAG_LAYOUTS)")
+    parser.add_argument("--tag-layout", choices=list(TAG_LAYOUTS), default=DEFAULT_TAG_LAYOUT, help="the objects' tags (TAG_LAYOUTS)")
     parser.add_argument("--out", default=None, help="write the result as JSON here")
     args = parser.parse_args(argv)
     if args.scenes < 1 or args.views < 1:
@@ -264,7 +264,7 @@ def main(argv: list[str] | None = None) -> None:
     settings = WristCameraSettings(lighting=args.lighting, image_noise=args.image_noise)
     result = measure(args.scenes, args.views, settings, args.seed, args.refine, not args.tag_poses, args.tag_layout)
     detector = f" --refine {args.refine}" + (" --tag-poses" if args.tag_poses else "")
-    detector += f" --tag-layout {args.tag_layout}" if args.tag_layout != "fitted" else ""
+    detector += f" --tag-layout {args.tag_layout}"  # named even when the default, which may change
     result = {
         "command": f"python -m benchmarks.mujoco_tags --scenes {args.scenes} --views {args.views} --lighting {args.lighting} --image-noise {args.image_noise} --seed {args.seed}{detector}",
         "machine": f"{platform.machine()} {platform.processor() or ''}".strip(),
