@@ -5,9 +5,10 @@ For each of ``--scenes`` held-out stage-2 shelves (1-10 objects, task seeds from
 gripper is placed at ``--views`` poses in front of the shelf (the task's start pose, then poses
 drawn uniformly in x -0.15..0.15 m, y -0.15..-0.02 m, theta -30..30 degrees; set kinematically,
 nothing moves), the wrist camera renders its 640 x 480 frame and ``occrl.perception.TagDetector``
-decodes it (OpenCV on one thread). Each decoded object's planar pose is compared with the true
-one; each object the geometric rule reports (more than 50 % visible, mj_multiRay) counts towards
-recall when the detector reports it too.
+decodes it (OpenCV on one thread; the decoding time is the fastest of ``--repeats`` passes over
+the frame, as other work on the machine only adds to it). Each decoded object's planar pose is
+compared with the true one; each object the geometric rule reports (more than 50 % visible,
+mj_multiRay) counts towards recall when the detector reports it too.
 
 Distance: from the camera to the object's centroid in the floor plane. Bearing: the angle between
 the camera's axis and the direction to the centroid, in the floor plane (0: straight ahead).
@@ -137,6 +138,7 @@ def measure(
     refine: str = "edges",
     planar_fit: bool = True,
     tag_layout: str | TagLayout = DEFAULT_TAG_LAYOUT,
+    repeats: int = 3,
 ) -> dict:
     import cv2
 
@@ -156,9 +158,12 @@ def measure(
             t = time.perf_counter()
             image = observer.image()
             render_s.append(time.perf_counter() - t)
-            t = time.perf_counter()
-            detections = observer.detections(image)
-            decode_s.append(time.perf_counter() - t)
+            times = []
+            for _ in range(repeats):  # the same frame again: the fastest pass is the one least disturbed
+                t = time.perf_counter()
+                detections = observer.detections(image)
+                times.append(time.perf_counter() - t)
+            decode_s.append(min(times))
             frames += 1
             seen = {d["type_id"]: d for d in detections}
             visible = world.visible_fractions("rays") > 0.5
@@ -257,14 +262,20 @@ def main(argv: list[str] | None = None) -> None:
         "--tag-poses", action="store_true", help="each object's pose from its tags' own poses (TagDetector(planar_fit=False))"
     )
     parser.add_argument("--tag-layout", choices=list(TAG_LAYOUTS), default=DEFAULT_TAG_LAYOUT, help="the objects' tags (TAG_LAYOUTS)")
+    parser.add_argument(
+        "--repeats",
+        type=int,
+        default=3,
+        help="decode each frame this many times and time the fastest (other work on the machine only adds)",
+    )
     parser.add_argument("--out", default=None, help="write the result as JSON here")
     args = parser.parse_args(argv)
-    if args.scenes < 1 or args.views < 1:
-        parser.error("--scenes and --views must be at least 1")
+    if args.scenes < 1 or args.views < 1 or args.repeats < 1:
+        parser.error("--scenes, --views and --repeats must be at least 1")
     settings = WristCameraSettings(lighting=args.lighting, image_noise=args.image_noise)
-    result = measure(args.scenes, args.views, settings, args.seed, args.refine, not args.tag_poses, args.tag_layout)
+    result = measure(args.scenes, args.views, settings, args.seed, args.refine, not args.tag_poses, args.tag_layout, args.repeats)
     detector = f" --refine {args.refine}" + (" --tag-poses" if args.tag_poses else "")
-    detector += f" --tag-layout {args.tag_layout}"  # named even when the default, which may change
+    detector += f" --tag-layout {args.tag_layout} --repeats {args.repeats}"  # named even when the default, which may change
     result = {
         "command": f"python -m benchmarks.mujoco_tags --scenes {args.scenes} --views {args.views} --lighting {args.lighting} --image-noise {args.image_noise} --seed {args.seed}{detector}",
         "machine": f"{platform.machine()} {platform.processor() or ''}".strip(),

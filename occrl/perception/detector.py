@@ -46,7 +46,7 @@ import numpy as np
 
 from occrl.perception.camera import CameraModel
 from occrl.perception.catalogue import TagCatalogue, TagEntry
-from occrl.perception.edges import refine_corners_on_edges
+from occrl.perception.edges import refine_tags_on_edges
 from occrl.perception.checks import positive_number, rigid_transform, strict_int
 from occrl.perception.frames import angle_difference, invert_transform, planar_pose, tilt_deg
 from occrl.perception.opencv import DEFAULT_DICTIONARY, aruco_dictionary, as_grey_image, check_dictionary, require_opencv
@@ -220,8 +220,8 @@ class TagDetector:
             if not any(t["tag_id"] == i and np.abs(t["corners"] - c).max() <= DUPLICATE_PX for t in tags):
                 tags.append({"tag_id": int(i), "corners": c})
         if self.refine == "edges":
-            for tag in tags:
-                tag["corners"] = refine_corners_on_edges(grey, tag["corners"], self._cells)
+            for tag, corners in zip(tags, refine_tags_on_edges(grey, [t["corners"] for t in tags], self._cells)):
+                tag["corners"] = corners
         return sorted(tags, key=lambda t: t["tag_id"])
 
     # -- poses -------------------------------------------------------------------------------

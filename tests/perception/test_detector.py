@@ -238,6 +238,25 @@ def test_edge_fit_removes_the_inward_corner_bias():
     assert abs(bias["edges"]) < 0.1, bias
 
 
+def test_tags_refined_together_are_refined_as_one_by_one():
+    """The edge fit of a frame's tags in one pass gives each tag exactly what its own pass gives,
+    including a tag too small to refine (kept as given) among them."""
+    from occrl.perception.edges import refine_corners_on_edges, refine_tags_on_edges
+
+    g = gripper()
+    detector = TagDetector(camera(), catalogue(), refine="subpix")
+    image = image_of([(3, (-0.06, 0.12, 0.3)), (5, (0.05, 0.1, -0.2))], g)
+    grey = detector.grey_image(image)
+    corners = [t["corners"] for t in detector.detect_tags(image)]
+    tiny = np.array([[300.0, 200.0], [305.0, 200.0], [305.0, 205.0], [300.0, 205.0]])  # 5 px: under 2 px a cell
+    together = refine_tags_on_edges(grey, corners + [tiny], 10)
+    assert len(corners) >= 2 and np.array_equal(together[-1], tiny)
+    for one, many in zip(corners, together):
+        assert np.array_equal(refine_corners_on_edges(grey, one, 10), many)
+        assert not np.array_equal(one, many)  # moved
+    assert refine_tags_on_edges(grey, [], 10) == []
+
+
 @pytest.mark.parametrize("seed", [25, 72, 0])
 def test_near_tag_in_a_thin_white_margin_is_decoded(seed):
     # a 3 cm tag 10 cm away facing the camera, one white cell around it on grey: OpenCV's default
