@@ -37,6 +37,7 @@ def main() -> None:
     seeds = [e["seed"] for e in run["episodes"] if not e["success"] and reference.get(e["seed"], {}).get("success")]
     method = make_method(run["method"], weights_file(run["network"]) if run["network"] else None)
     options = {k: run[k] for k in ("shelf_height", "tag_layout") if run.get(k) is not None}
+    options.setdefault("tag_layout", "fitted")  # a result that does not name its tags predates the pairs default
     print(f"{len(seeds)} tasks only {args.reference} solved; per task: target in view / decoded then, all objects in view / decoded then")
     totals = np.zeros(4, dtype=np.int64)
     for seed in seeds:

@@ -117,10 +117,13 @@ class TagDetector:
             fitted to the square's sides (:mod:`occrl.perception.edges`; no inward bias, so more
             accurate on small and far tags), or OpenCV's own ``"subpix"``, ``"contour"``,
             ``"apriltag"`` or ``"none"``.
-        agreement: (metres, degrees) within which an object's tags must agree (module docstring).
+        agreement: (metres, degrees) within which the poses of an object's tags agree (module
+            docstring, steps 3 and 5).
         max_detections: at most this many objects are reported, the nearest to the camera.
-        planar_fit: fit each object's planar pose to its tags' corners (step 4 of the module
-            docstring); False reports the pose the tags' own poses give (steps 1-3).
+        planar_fit: fit each object's planar pose to its tags' corners, and keep an object whose
+            tags' own poses disagree when one such fit explains its corners (steps 4 and 5 of the
+            module docstring); False reports the pose the tags' own poses give (steps 1-3) and
+            drops an object whose tags disagree.
 
     Examples:
         >>> import numpy as np
@@ -295,10 +298,11 @@ class TagDetector:
             if type_id not in self._warned_disagreement:
                 self._warned_disagreement.add(type_id)
                 logger.warning(
-                    "the tags of type %d disagree by more than %.3g m / %.3g deg; the object is dropped for that frame "
+                    "the tags of type %d disagree by more than %.3g m / %.3g deg%s; the object is dropped for that frame "
                     "(counted in disagreement_count; check the catalogue's tag placement; warned once per type)",
                     type_id,
                     *self.agreement,
+                    f" and no upright pose fits their corners within {FIT_AGREEMENT_PX:g} px" if self.planar_fit else "",
                 )
             return None
         poses = np.array([planar_pose(c.shelf_object) for c in most_upright_then_sharpest(agreeing)])

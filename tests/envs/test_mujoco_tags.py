@@ -106,7 +106,7 @@ def test_a_tag_layout_sizes_the_tags_and_bad_layouts_are_refused():
     assert [t for t in TagLayout(pair_size=0.016).tags_on_face(0.04)] == [(0.0, TagLayout().tag_size(0.04))]  # halves too small
     high = Scene.from_objects([{"vertices": box, "pose": (0.0, 0.2, 0.0), "is_target": True, "type_id": MAX_PAIRED_TYPE + 1}])
     assert len(tag_placements(high, heights[:1])) == 4  # single tags go up to type 73
-    with pytest.raises(ValueError, match=r"pairs tags type ids 1 to 36 .* type ids \[37\]"):
+    with pytest.raises(ValueError, match=r"pairs tags type ids 1 to 36 .* type ids \[37\]; one tag per face \(tag_layout='fitted'\)"):
         tag_placements(high, heights[:1], TAG_LAYOUTS["pairs"])
     with pytest.raises(ValueError, match=r"type id in \[1, 36\]"):
         tag_id(37, 0, second=True)
@@ -143,6 +143,12 @@ def test_an_env_with_another_tag_layout_wears_those_tags():
     assert sizes and max(sizes) <= 0.03 + 1e-12 and min(sizes) >= 0.010
     assert {e.tag_id: e.size for e in env.base_env.tag_observers[0].catalogue} == {t.tag_id: t.size for t in env.base_env.worlds[0].tags}
     env.close()
+    # a world takes a layout's name too; True is the default layout
+    one_per_face, default = MujocoWorld(TWO_IN_VIEW, tags="fitted"), MujocoWorld(TWO_IN_VIEW, tags=True)
+    assert [t.along for t in one_per_face.tags] == [0.0] * len(one_per_face.tags)
+    assert len(default.tags) > len(one_per_face.tags)  # pairs on the 5 cm faces
+    one_per_face.close()
+    default.close()
 
 
 def test_tag_cards_change_neither_physics_nor_geometric_visibility():

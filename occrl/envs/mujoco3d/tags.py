@@ -192,7 +192,8 @@ def tag_id(type_id: int, face: int, second: bool = False) -> int:
 
 
 def tag_placements(scene: Scene, heights: np.ndarray, layout: TagLayout = TagLayout()) -> list[TagPlacement]:
-    """Every tag of a scene's objects (``heights``: each object's height in m), sized by ``layout``.
+    """Every tag of a scene's objects (``heights``: each object's height in m), placed by ``layout``
+    (here one tag per face unless given; the envs' default is :data:`DEFAULT_TAG_LAYOUT`).
 
     Examples:
         >>> import numpy as np
@@ -217,7 +218,8 @@ def tag_placements(scene: Scene, heights: np.ndarray, layout: TagLayout = TagLay
         too_high = sorted({o.type_id for o in scene.objects if o.type_id > MAX_PAIRED_TYPE})
         if too_high:
             raise ValueError(
-                f"a TagLayout with pairs tags type ids 1 to {MAX_PAIRED_TYPE} (16 tags per type), the scene has type ids {too_high}"
+                f"a TagLayout with pairs tags type ids 1 to {MAX_PAIRED_TYPE} (16 tags per type), the scene has type ids {too_high}; "
+                "one tag per face (tag_layout='fitted') tags type ids up to 73"
             )
     out = []
     for i, (o, h) in enumerate(zip(scene.objects, heights)):

@@ -42,7 +42,8 @@ class MujocoWorld(RendererOwner):
         object_height: a height in m, or a (low, high) range sampled per type id.
         tags: put fiducial tags on the side faces (:mod:`~occrl.envs.mujoco3d.tags`; needs
             OpenCV): ``True`` for the :data:`~occrl.envs.mujoco3d.tags.DEFAULT_TAG_LAYOUT`, or a
-            :class:`~occrl.envs.mujoco3d.tags.TagLayout`; the cards are visual only, so physics
+            :class:`~occrl.envs.mujoco3d.tags.TagLayout` or a name in
+            :data:`~occrl.envs.mujoco3d.tags.TAG_LAYOUTS`; the cards are visual only, so physics
             and visibility are unchanged.
         shelf_height: the shelf's inside height in m (0.30 by default; the papers' real shelf: 0.40).
 
@@ -91,7 +92,7 @@ class MujocoWorld(RendererOwner):
         self.mjcf_model = build_mjcf(scene, camera, object_height, shelf_height)
         self.tags: list[TagPlacement] = []
         if tags:
-            self.tags = tag_placements(scene, self.heights, tags if isinstance(tags, TagLayout) else as_tag_layout(DEFAULT_TAG_LAYOUT))
+            self.tags = tag_placements(scene, self.heights, as_tag_layout(DEFAULT_TAG_LAYOUT if tags is True else tags))
             add_tags(self.mjcf_model, self.tags)
         self.physics = mjcf.Physics.from_mjcf_model(self.mjcf_model)
         m = self.model = self.physics.model.ptr
